@@ -1,1 +1,25 @@
-//! placeholder
+//! The CANopen-style protocol, sans-I/O: frames in, typed values out, and back.
+//!
+//! NMT, SYNC, heartbeat, EMCY and PDOs with a fixed mapping. The layout lives in one table
+//! ([`messages`]); the codec and `dbc/actuatord.dbc` are both made from it.
+
+mod codec;
+pub mod dbc;
+mod emcy;
+pub mod messages;
+mod nmt;
+mod pdo;
+mod signal;
+
+pub use codec::{check_length, pack, unpack, DecodeError};
+pub use emcy::{error_code, error_register, Emcy, ERROR_RESET};
+pub use messages::{Message, FAULT_FLAG_NAMES};
+pub use nmt::{
+    decode_heartbeat, decode_sync, encode_heartbeat, is_heartbeat, NmtCommand, NmtState,
+    SyncCounter,
+};
+pub use pdo::{
+    CommandPdo, FaultResetPdo, FaultStatePdo, LoopStatusPdo, SensorPdo, SetpointPdo,
+    SupplyPressurePdo, TunedParametersPdo,
+};
+pub use signal::Signal;

@@ -1,1 +1,15 @@
-//! placeholder
+//! The runtime: configuration, the real-time cycle, the controller node, recording.
+//! It wires the layers below and has no maths of its own.
+
+pub mod axis;
+pub mod config;
+pub mod cycle;
+pub mod node;
+pub mod record;
+pub mod recorder;
+pub mod rt;
+
+pub use config::Config;
+pub use cycle::{run_cycle, CycleReport, CycleSettings};
+pub use node::ControllerNode;
+pub use recorder::{RecordSink, Recorder, RecorderReport};

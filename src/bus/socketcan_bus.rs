@@ -1,0 +1,102 @@
+//! SocketCAN backend: a raw CAN socket on a kernel interface (can0, vcan0, ...).
+
+use super::{Bus, BusError, BusErrorFrame, BusEvent, Frame};
+use socketcan::{CanFrame, CanSocket, EmbeddedFrame, Frame as _, Socket, SocketOptions};
+use std::io::ErrorKind;
+use std::time::{Duration, Instant};
+
+/// A raw SocketCAN socket with error frames requested, so bus-off and friends are reported.
+pub struct SocketCanBus {
+    iface: String,
+    socket: CanSocket,
+}
+
+impl SocketCanBus {
+    /// Open `iface`. A missing interface is reported as such, not as a bare errno.
+    pub fn open(iface: &str) -> Result<Self, BusError> {
+        if !std::path::Path::new("/sys/class/net").join(iface).exists() {
+            return Err(BusError::NoSuchInterface(iface.to_string()));
+        }
+        let io = |source| BusError::Io {
+            iface: iface.to_string(),
+            source,
+        };
+        let socket = CanSocket::open(iface).map_err(io)?;
+        socket.set_error_filter_accept_all().map_err(io)?;
+        Ok(Self {
+            iface: iface.to_string(),
+            socket,
+        })
+    }
+
+    fn io(&self, source: std::io::Error) -> BusError {
+        BusError::Io {
+            iface: self.iface.clone(),
+            source,
+        }
+    }
+}
+
+impl Bus for SocketCanBus {
+    fn send(&mut self, frame: &Frame) -> Result<(), BusError> {
+        let id: socketcan::Id = if frame.is_extended() {
+            socketcan::ExtendedId::new(frame.id())
+                .map(Into::into)
+                .ok_or_else(|| self.io(ErrorKind::InvalidInput.into()))?
+        } else {
+            socketcan::StandardId::new(frame.id() as u16)
+                .map(Into::into)
+                .ok_or_else(|| self.io(ErrorKind::InvalidInput.into()))?
+        };
+        let can = CanFrame::new(id, frame.data())
+            .ok_or_else(|| self.io(ErrorKind::InvalidInput.into()))?;
+        self.socket.write_frame(&can).map_err(|e| self.io(e))
+    }
+
+    fn recv_until(&mut self, deadline: Instant) -> Result<Option<BusEvent>, BusError> {
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return Ok(None);
+            }
+            // A zero timeout means "block forever" to the kernel, so never pass less than 1 µs.
+            let timeout = left.max(Duration::from_micros(1));
+            self.socket
+                .set_read_timeout(timeout)
+                .map_err(|e| self.io(e))?;
+            match self.socket.read_frame() {
+                Ok(CanFrame::Data(f)) => {
+                    let frame = if f.is_extended() {
+                        Frame::new_extended(f.raw_id(), f.data())
+                    } else {
+                        Frame::new(f.raw_id(), f.data())
+                    };
+                    // The kernel only hands out well-formed classic frames; anything else is skipped.
+                    if let Ok(frame) = frame {
+                        return Ok(Some(BusEvent::Frame(frame)));
+                    }
+                }
+                Ok(CanFrame::Error(e)) => {
+                    let mut data = [0u8; 8];
+                    let d = e.data();
+                    data[..d.len().min(8)].copy_from_slice(&d[..d.len().min(8)]);
+                    return Ok(Some(BusEvent::ErrorFrame(BusErrorFrame {
+                        class: e.error_bits(),
+                        data,
+                    })));
+                }
+                // Remote frames carry no data this protocol uses.
+                Ok(CanFrame::Remote(_)) => {}
+                Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {
+                    return Ok(None)
+                }
+                Err(e) if e.kind() == ErrorKind::Interrupted => {}
+                Err(e) => return Err(self.io(e)),
+            }
+        }
+    }
+
+    fn name(&self) -> &str {
+        &self.iface
+    }
+}

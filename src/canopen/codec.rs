@@ -1,0 +1,65 @@
+//! Generic pack/unpack of a [`Message`] from physical values, allocation-free.
+
+use super::messages::Message;
+use crate::bus::Frame;
+
+/// Why a received frame could not be decoded.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum DecodeError {
+    #[error("frame {name} (0x{id:03X}) has {got} data bytes, expected {expected}")]
+    WrongLength {
+        name: &'static str,
+        id: u32,
+        got: usize,
+        expected: usize,
+    },
+    #[error("frame {name} (0x{id:03X}): signal {signal} has invalid value {value}")]
+    BadValue {
+        name: &'static str,
+        id: u32,
+        signal: &'static str,
+        value: i64,
+    },
+}
+
+/// Pack physical values, one per signal in table order, into a frame with the message's length.
+///
+/// Values outside a signal's range saturate; the count of such values is returned beside the frame.
+pub fn pack(message: &Message, node_id: u8, values: &[f64]) -> (Frame, usize) {
+    debug_assert_eq!(values.len(), message.signals.len(), "{}", message.name);
+    let mut data = [0u8; 8];
+    let mut clipped = 0;
+    for (signal, value) in message.signals.iter().zip(values) {
+        if !signal.encode(*value, &mut data) {
+            clipped += 1;
+        }
+    }
+    // The tables are fixed and tested to fit in 8 bytes with an 11-bit id.
+    let frame = Frame::new(message.cob_id(node_id), &data[..message.dlc])
+        .unwrap_or_else(|e| unreachable!("message table {}: {e}", message.name));
+    (frame, clipped)
+}
+
+/// Check a frame's length against its message.
+pub fn check_length(message: &Message, frame: &Frame) -> Result<(), DecodeError> {
+    if frame.len() != message.dlc {
+        return Err(DecodeError::WrongLength {
+            name: message.name,
+            id: frame.id(),
+            got: frame.len(),
+            expected: message.dlc,
+        });
+    }
+    Ok(())
+}
+
+/// Unpack every signal into physical values, in table order.
+pub fn unpack<const N: usize>(message: &Message, frame: &Frame) -> Result<[f64; N], DecodeError> {
+    check_length(message, frame)?;
+    debug_assert_eq!(N, message.signals.len(), "{}", message.name);
+    let mut out = [0.0; N];
+    for (slot, signal) in out.iter_mut().zip(message.signals) {
+        *slot = signal.decode(frame.data());
+    }
+    Ok(out)
+}

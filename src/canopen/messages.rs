@@ -1,0 +1,498 @@
+//! The fixed frame layout of the protocol: every frame, its COB-ID, its signals.
+//!
+//! `dbc/actuatord.dbc` is rendered from these tables (`actuator dbc`), and a test decodes codec
+//! output with that file, so code and DBC cannot drift apart.
+
+use super::signal::Signal;
+
+/// Whose node id is added to the function code to give the COB-ID.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum IdBase {
+    /// The control daemon's (`actuatord`) node id: its TPDOs and RPDOs, EMCY, heartbeat.
+    Controller,
+    /// The actuator node's id (real, or `actuator sim`).
+    Actuator,
+    /// Broadcast frames with a fixed id (NMT, SYNC).
+    Fixed,
+}
+
+/// DBC node names of the transmitters.
+pub const NODE_CONTROLLER: &str = "actuatord";
+pub const NODE_ACTUATOR: &str = "actuator_node";
+/// Whoever commands the axes: a PLC, a vehicle ECU, or `cansend`.
+pub const NODE_AUTOMATION: &str = "automation";
+
+/// One frame of the protocol.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Message {
+    pub name: &'static str,
+    /// CANopen function code; the COB-ID is `function_code + node_id` unless the sender is Fixed.
+    pub function_code: u32,
+    pub id_base: IdBase,
+    /// DBC node that transmits it.
+    pub transmitter: &'static str,
+    pub dlc: usize,
+    pub signals: &'static [Signal],
+    pub comment: &'static str,
+}
+
+impl Message {
+    pub fn cob_id(&self, node_id: u8) -> u32 {
+        match self.id_base {
+            IdBase::Fixed => self.function_code,
+            _ => self.function_code + u32::from(node_id),
+        }
+    }
+
+    pub fn signal(&self, name: &str) -> Option<&'static Signal> {
+        self.signals.iter().find(|s| s.name == name)
+    }
+}
+
+/// Names of the fault flags, bit 0 first; the same words as `supervise::FaultKind`.
+pub const FAULT_FLAG_NAMES: [&str; 8] = [
+    "following_error",
+    "end_of_range",
+    "overcurrent",
+    "supply_voltage",
+    "supply_pressure",
+    "sensor_timeout",
+    "heartbeat_lost",
+    "node_state",
+];
+
+const fn flag(bit: u16, name: &'static str, comment: &'static str) -> Signal {
+    Signal::raw(name, bit, 1, comment)
+}
+
+const fn scaled(
+    name: &'static str,
+    start_bit: u16,
+    bits: u8,
+    signed: bool,
+    factor: f64,
+    unit: &'static str,
+    comment: &'static str,
+) -> Signal {
+    Signal {
+        name,
+        start_bit,
+        bits,
+        signed,
+        factor,
+        offset: 0.0,
+        unit,
+        comment,
+    }
+}
+
+/// Fault flag signals starting at `base`, in [`FAULT_FLAG_NAMES`] order.
+macro_rules! fault_flags {
+    ($base:expr) => {
+        [
+            flag(
+                $base,
+                "following_error",
+                "|setpoint - position| above its limit for longer than allowed",
+            ),
+            flag(
+                $base + 1,
+                "end_of_range",
+                "position outside the configured travel",
+            ),
+            flag(
+                $base + 2,
+                "overcurrent",
+                "current above its limit for longer than allowed",
+            ),
+            flag(
+                $base + 3,
+                "supply_voltage",
+                "supply voltage outside its band",
+            ),
+            flag(
+                $base + 4,
+                "supply_pressure",
+                "supply pressure outside its band",
+            ),
+            flag(
+                $base + 5,
+                "sensor_timeout",
+                "sensor frames missing for too many cycles",
+            ),
+            flag(
+                $base + 6,
+                "heartbeat_lost",
+                "actuator node heartbeat missing",
+            ),
+            flag(
+                $base + 7,
+                "node_state",
+                "actuator node left the operational state",
+            ),
+        ]
+    };
+}
+
+const SYNC_SIGNALS: [Signal; 1] = [Signal::raw(
+    "sync_counter",
+    0,
+    8,
+    "CiA 301 SYNC counter, 1..=240, wraps to 1",
+)];
+
+const NMT_SIGNALS: [Signal; 2] = [
+    Signal::raw(
+        "nmt_command",
+        0,
+        8,
+        "1 start, 2 stop, 128 pre-operational, 129 reset node, 130 reset communication",
+    ),
+    Signal::raw("nmt_node_id", 8, 8, "addressed node, 0 = all"),
+];
+
+const HEARTBEAT_SIGNALS: [Signal; 1] = [Signal::raw(
+    "nmt_state",
+    0,
+    7,
+    "0 boot-up, 4 stopped, 5 operational, 127 pre-operational",
+)];
+
+const SENSOR_SIGNALS: [Signal; 3] = [
+    scaled("position", 0, 32, true, 1e-7, "m", "measured position"),
+    scaled(
+        "current",
+        32,
+        16,
+        true,
+        1e-3,
+        "A",
+        "measured coil or armature current",
+    ),
+    scaled(
+        "supply_voltage",
+        48,
+        16,
+        false,
+        1e-3,
+        "V",
+        "measured supply voltage",
+    ),
+];
+
+const SUPPLY_PRESSURE_SIGNALS: [Signal; 1] = [scaled(
+    "supply_pressure",
+    0,
+    32,
+    false,
+    1.0,
+    "Pa",
+    "measured absolute supply pressure",
+)];
+
+const COMMAND_SIGNALS: [Signal; 3] = [
+    scaled(
+        "command_voltage",
+        0,
+        16,
+        true,
+        1e-3,
+        "V",
+        "terminal voltage to apply (solenoid, motor)",
+    ),
+    scaled(
+        "command_duty",
+        16,
+        16,
+        true,
+        1e-4,
+        "",
+        "signed valve duty -1..1 (pneumatic: < 0 valve to low pressure, > 0 valve to atmosphere)",
+    ),
+    Signal::raw(
+        "command_sync_counter",
+        32,
+        8,
+        "SYNC counter this command answers",
+    ),
+];
+
+const SETPOINT_SIGNALS: [Signal; 2] = [
+    scaled(
+        "setpoint_position",
+        0,
+        32,
+        true,
+        1e-7,
+        "m",
+        "position setpoint",
+    ),
+    Signal::raw("axis_node_id", 32, 8, "node id of the axis' actuator node"),
+];
+
+const FAULT_RESET_SIGNALS: [Signal; 1] = [Signal::raw(
+    "axis_node_id",
+    0,
+    8,
+    "node id of the axis to reset, 0 = all axes",
+)];
+
+const FAULT_STATE_SIGNALS: [Signal; 11] = {
+    let f = fault_flags!(16);
+    [
+        Signal::raw("axis_node_id", 0, 8, "node id of the axis' actuator node"),
+        Signal::raw("fault_state", 8, 8, "0 ok, 1 warning (limit exceeded, not yet latched), 2 fault (latched, axis in safe state)"),
+        f[0], f[1], f[2], f[3], f[4], f[5], f[6], f[7],
+        scaled("following_error", 32, 32, true, 1e-7, "m", "setpoint - position"),
+    ]
+};
+
+const EMCY_SIGNALS: [Signal; 11] = {
+    let f = fault_flags!(32);
+    [
+        Signal::raw(
+            "emcy_error_code",
+            0,
+            16,
+            "CiA 301/402 error code, 0 = error reset",
+        ),
+        Signal::raw(
+            "emcy_error_register",
+            16,
+            8,
+            "CiA 301 error register (object 1001h)",
+        ),
+        Signal::raw("axis_node_id", 24, 8, "node id of the axis' actuator node"),
+        f[0],
+        f[1],
+        f[2],
+        f[3],
+        f[4],
+        f[5],
+        f[6],
+        f[7],
+    ]
+};
+
+const TUNED_PARAMETER_SIGNALS: [Signal; 3] = [
+    Signal::raw("axis_node_id", 0, 8, "node id of the axis' actuator node"),
+    scaled(
+        "friction_compensation",
+        8,
+        16,
+        true,
+        1e-3,
+        "V",
+        "friction compensation voltage in use",
+    ),
+    scaled(
+        "gain_schedule_factor",
+        24,
+        16,
+        false,
+        1e-3,
+        "",
+        "controller gain factor from the supply schedule",
+    ),
+];
+
+const LOOP_STATUS_SIGNALS: [Signal; 4] = [
+    Signal::raw(
+        "overruns",
+        0,
+        16,
+        "cycles that missed their deadline, total (wraps)",
+    ),
+    Signal::raw(
+        "sensor_missed",
+        16,
+        16,
+        "cycles without a sensor frame in time, total (wraps)",
+    ),
+    Signal::raw(
+        "frames_malformed",
+        32,
+        16,
+        "frames with a known id but a wrong length, total (wraps)",
+    ),
+    scaled(
+        "cycle_latency_max",
+        48,
+        16,
+        false,
+        1e-6,
+        "s",
+        "largest delay from cycle start to command sent since the last report",
+    ),
+];
+
+pub const NMT: Message = Message {
+    name: "nmt",
+    function_code: 0x000,
+    id_base: IdBase::Fixed,
+    transmitter: NODE_CONTROLLER,
+    dlc: 2,
+    signals: &NMT_SIGNALS,
+    comment: "NMT node control, sent by the controller",
+};
+
+pub const SYNC: Message = Message {
+    name: "sync",
+    function_code: 0x080,
+    id_base: IdBase::Fixed,
+    transmitter: NODE_CONTROLLER,
+    dlc: 1,
+    signals: &SYNC_SIGNALS,
+    comment: "SYNC from the controller, starts every control cycle",
+};
+
+pub const EMCY: Message = Message {
+    name: "emcy",
+    function_code: 0x080,
+    id_base: IdBase::Controller,
+    transmitter: NODE_CONTROLLER,
+    dlc: 8,
+    signals: &EMCY_SIGNALS,
+    comment: "emergency: a fault was raised (or reset, error code 0)",
+};
+
+pub const SENSOR: Message = Message {
+    name: "sensor",
+    function_code: 0x180,
+    id_base: IdBase::Actuator,
+    transmitter: NODE_ACTUATOR,
+    dlc: 8,
+    signals: &SENSOR_SIGNALS,
+    comment: "TPDO1 of the actuator node, answers every SYNC",
+};
+
+pub const SUPPLY_PRESSURE: Message = Message {
+    name: "sensor_supply_pressure",
+    function_code: 0x280,
+    id_base: IdBase::Actuator,
+    transmitter: NODE_ACTUATOR,
+    dlc: 4,
+    signals: &SUPPLY_PRESSURE_SIGNALS,
+    comment: "TPDO2 of a pneumatic actuator node, after every sensor frame",
+};
+
+pub const COMMAND: Message = Message {
+    name: "command",
+    function_code: 0x200,
+    id_base: IdBase::Actuator,
+    transmitter: NODE_CONTROLLER,
+    dlc: 5,
+    signals: &COMMAND_SIGNALS,
+    comment: "RPDO1 of the actuator node: the actuator command, once per cycle",
+};
+
+pub const FAULT_STATE: Message = Message {
+    name: "fault_state",
+    function_code: 0x180,
+    id_base: IdBase::Controller,
+    transmitter: NODE_CONTROLLER,
+    dlc: 8,
+    signals: &FAULT_STATE_SIGNALS,
+    comment: "TPDO1 of the controller: fault state of one axis, every status period and on change",
+};
+
+pub const TUNED_PARAMETERS: Message = Message {
+    name: "tuned_parameters",
+    function_code: 0x280,
+    id_base: IdBase::Controller,
+    transmitter: NODE_CONTROLLER,
+    dlc: 5,
+    signals: &TUNED_PARAMETER_SIGNALS,
+    comment: "TPDO2 of the controller: parameters the axis is running with, every status period",
+};
+
+pub const LOOP_STATUS: Message = Message {
+    name: "loop_status",
+    function_code: 0x380,
+    id_base: IdBase::Controller,
+    transmitter: NODE_CONTROLLER,
+    dlc: 8,
+    signals: &LOOP_STATUS_SIGNALS,
+    comment: "TPDO3 of the controller: cycle timing counters, every status period",
+};
+
+pub const SETPOINT: Message = Message {
+    name: "setpoint",
+    function_code: 0x200,
+    id_base: IdBase::Controller,
+    transmitter: NODE_AUTOMATION,
+    dlc: 5,
+    signals: &SETPOINT_SIGNALS,
+    comment: "RPDO1 of the controller: position setpoint for one axis",
+};
+
+pub const FAULT_RESET: Message = Message {
+    name: "fault_reset",
+    function_code: 0x300,
+    id_base: IdBase::Controller,
+    transmitter: NODE_AUTOMATION,
+    dlc: 1,
+    signals: &FAULT_RESET_SIGNALS,
+    comment: "RPDO2 of the controller: clear latched faults",
+};
+
+pub const HEARTBEAT_CONTROLLER: Message = Message {
+    name: "heartbeat_controller",
+    function_code: 0x700,
+    id_base: IdBase::Controller,
+    transmitter: NODE_CONTROLLER,
+    dlc: 1,
+    signals: &HEARTBEAT_SIGNALS,
+    comment: "heartbeat of the controller: its NMT state",
+};
+
+pub const HEARTBEAT_ACTUATOR: Message = Message {
+    name: "heartbeat_actuator",
+    function_code: 0x700,
+    id_base: IdBase::Actuator,
+    transmitter: NODE_ACTUATOR,
+    dlc: 1,
+    signals: &HEARTBEAT_SIGNALS,
+    comment: "heartbeat of the actuator node: its NMT state",
+};
+
+/// Every frame, for the DBC and for tests.
+pub const ALL: [&Message; 13] = [
+    &NMT,
+    &SYNC,
+    &EMCY,
+    &SENSOR,
+    &SUPPLY_PRESSURE,
+    &COMMAND,
+    &FAULT_STATE,
+    &TUNED_PARAMETERS,
+    &LOOP_STATUS,
+    &SETPOINT,
+    &FAULT_RESET,
+    &HEARTBEAT_CONTROLLER,
+    &HEARTBEAT_ACTUATOR,
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_signal_fits_its_frame_and_no_two_overlap() {
+        for m in ALL {
+            let mut used = 0u64;
+            for s in m.signals {
+                assert!(s.end_byte() <= m.dlc, "{}.{} runs past dlc", m.name, s.name);
+                let mask = ((1u128 << s.bits) - 1) as u64;
+                assert_eq!(
+                    used & (mask << s.start_bit),
+                    0,
+                    "{}.{} overlaps",
+                    m.name,
+                    s.name
+                );
+                used |= mask << s.start_bit;
+            }
+        }
+    }
+}

@@ -1,0 +1,440 @@
+//! The controller as a CAN node, sans-I/O: frames in through [`ControllerNode::handle`], frames
+//! and records out through callbacks once per cycle. The cycle thread owns the I/O around it.
+
+use super::axis::{Axis, AxisStep};
+use super::config::{cycles, CommandKind, Config};
+use super::record::{CycleRecord, Event, Record};
+use crate::bus::Frame;
+use crate::canopen::{
+    decode_heartbeat, decode_sync, encode_heartbeat, is_heartbeat, messages, CommandPdo, Emcy,
+    FaultResetPdo, FaultStatePdo, LoopStatusPdo, NmtCommand, NmtState, SensorPdo, SetpointPdo,
+    SupplyPressurePdo, SyncCounter, TunedParametersPdo,
+};
+use crate::control::ControllerError;
+use crate::supervise::FaultState;
+
+/// Counters of the node since start.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct NodeCounters {
+    pub cycles: u64,
+    pub sensor_missed: u64,
+    pub frames_malformed: u64,
+    pub frames_unknown: u64,
+    pub overruns: u64,
+    pub bus_errors: u64,
+    pub faults_raised: u64,
+}
+
+/// Timing facts the cycle thread measured for the cycle just run.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CycleTiming {
+    /// Delay from the release time to waking up, this cycle.
+    pub wake_latency_s: f64,
+    /// Delay from release to the last frame sent, previous cycle (this one is not over yet).
+    pub previous_cycle_latency_s: f64,
+}
+
+/// Unknown ids are logged at most this often, so a busy foreign bus cannot flood the log.
+const UNKNOWN_LOG_INTERVAL_S: f64 = 1.0;
+
+pub struct ControllerNode {
+    node_id: u8,
+    state: NmtState,
+    axes: Vec<Axis>,
+    sync: SyncCounter,
+    heartbeat_every: u32,
+    status_every: u32,
+    last_fault_state: Vec<(FaultState, u16)>,
+    announce_reset: Vec<bool>,
+    counters: NodeCounters,
+    latency_max_s: f64,
+    last_unknown_log_s: f64,
+    pending_reset: bool,
+    period_s: f64,
+}
+
+impl ControllerNode {
+    pub fn new(config: &Config) -> Result<Self, ControllerError> {
+        let period_s = config.cycle.period_s;
+        let axes = config
+            .axis
+            .iter()
+            .map(|a| Axis::new(a, period_s))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self {
+            node_id: config.node.node_id,
+            state: NmtState::Initialising,
+            last_fault_state: vec![(FaultState::Ok, 0); axes.len()],
+            announce_reset: vec![false; axes.len()],
+            axes,
+            sync: SyncCounter::default(),
+            heartbeat_every: cycles(config.node.heartbeat_period_s, period_s),
+            status_every: cycles(config.node.status_period_s, period_s),
+            counters: NodeCounters::default(),
+            latency_max_s: 0.0,
+            last_unknown_log_s: f64::NEG_INFINITY,
+            pending_reset: false,
+            period_s,
+        })
+    }
+
+    pub fn node_id(&self) -> u8 {
+        self.node_id
+    }
+
+    pub fn state(&self) -> NmtState {
+        self.state
+    }
+
+    pub fn counters(&self) -> NodeCounters {
+        self.counters
+    }
+
+    pub fn counters_mut(&mut self) -> &mut NodeCounters {
+        &mut self.counters
+    }
+
+    pub fn axes(&self) -> &[Axis] {
+        &self.axes
+    }
+
+    /// Boot: announce ourselves, start the actuator nodes, go operational (we are the NMT master).
+    pub fn boot(&mut self, send: &mut dyn FnMut(&Frame), record: &mut dyn FnMut(Record)) {
+        send(&encode_heartbeat(self.node_id, NmtState::Initialising));
+        for axis in &self.axes {
+            if axis.start_node {
+                send(&NmtCommand::Start.encode(axis.actuator_node_id));
+            }
+        }
+        self.state = NmtState::Operational;
+        record(Record::Event(Event::OwnState {
+            t_s: 0.0,
+            state: self.state,
+        }));
+    }
+
+    /// The SYNC that opens a cycle.
+    pub fn sync_frame(&mut self) -> Frame {
+        self.sync.encode()
+    }
+
+    /// True once every axis has its sensor frame for this cycle.
+    pub fn all_sensors_in(&self) -> bool {
+        self.axes.iter().all(Axis::has_fresh_sensor)
+    }
+
+    /// Take one received frame.
+    pub fn handle(&mut self, frame: &Frame, now_s: f64, record: &mut dyn FnMut(Record)) {
+        let id = frame.id();
+        if frame.is_extended() {
+            self.unknown(frame, now_s, record);
+            return;
+        }
+        let mut malformed = |node: &mut Self, error| {
+            node.counters.frames_malformed += 1;
+            record(Record::Event(Event::Malformed {
+                t_s: now_s,
+                frame: *frame,
+                error,
+            }));
+        };
+        if id == messages::NMT.cob_id(0) {
+            match NmtCommand::decode(frame) {
+                Ok((cmd, target)) if NmtCommand::addresses(target, self.node_id) => {
+                    self.on_nmt(cmd, now_s, record)
+                }
+                Ok(_) => {}
+                Err(e) => malformed(self, e),
+            }
+            return;
+        }
+        if id == messages::SYNC.cob_id(0) {
+            // Another SYNC producer on the bus; ours is the one that counts. Check it decodes.
+            if let Err(e) = decode_sync(frame) {
+                malformed(self, e);
+            }
+            return;
+        }
+        if id == messages::SETPOINT.cob_id(self.node_id) {
+            match SetpointPdo::decode(frame) {
+                Ok(sp) => {
+                    if let Some(axis) = self.axis_mut(sp.axis_node_id) {
+                        axis.set_setpoint(sp.position);
+                    }
+                }
+                Err(e) => malformed(self, e),
+            }
+            return;
+        }
+        if id == messages::FAULT_RESET.cob_id(self.node_id) {
+            match FaultResetPdo::decode(frame) {
+                Ok(r) => self.reset_faults(r.axis_node_id, now_s, record),
+                Err(e) => malformed(self, e),
+            }
+            return;
+        }
+        if is_heartbeat(frame) {
+            match decode_heartbeat(frame) {
+                Ok((node, state)) => {
+                    if let Some(index) = self.axis_index(node) {
+                        let axis = &mut self.axes[index];
+                        axis.on_heartbeat(state, now_s);
+                        if state == NmtState::Initialising {
+                            record(Record::Event(Event::NodeState {
+                                t_s: now_s,
+                                node_id: node,
+                                state,
+                            }));
+                            // A rebooted node waits in pre-operational: start it again.
+                            if axis.start_node {
+                                self.pending_reset = true;
+                            }
+                        }
+                    }
+                }
+                Err(e) => malformed(self, e),
+            }
+            return;
+        }
+        for index in 0..self.axes.len() {
+            let node = self.axes[index].actuator_node_id;
+            if id == messages::SENSOR.cob_id(node) {
+                match SensorPdo::decode(frame) {
+                    Ok(s) => self.axes[index].on_sensor(s),
+                    Err(e) => malformed(self, e),
+                }
+                return;
+            }
+            if id == messages::SUPPLY_PRESSURE.cob_id(node) {
+                match SupplyPressurePdo::decode(frame) {
+                    Ok(p) => self.axes[index].on_supply_pressure(p.supply_pressure_pa),
+                    Err(e) => malformed(self, e),
+                }
+                return;
+            }
+            if id == messages::COMMAND.cob_id(node) {
+                // Our own command echoed by a second controller would be a configuration error;
+                // on vcan we never see our own frames, so this is another master.
+                self.unknown(frame, now_s, record);
+                return;
+            }
+        }
+        self.unknown(frame, now_s, record);
+    }
+
+    fn unknown(&mut self, frame: &Frame, now_s: f64, record: &mut dyn FnMut(Record)) {
+        self.counters.frames_unknown += 1;
+        if now_s - self.last_unknown_log_s >= UNKNOWN_LOG_INTERVAL_S {
+            self.last_unknown_log_s = now_s;
+            record(Record::Event(Event::UnknownFrame {
+                t_s: now_s,
+                frame: *frame,
+            }));
+        }
+    }
+
+    fn axis_index(&self, node: u8) -> Option<usize> {
+        self.axes.iter().position(|a| a.actuator_node_id == node)
+    }
+
+    fn axis_mut(&mut self, node: u8) -> Option<&mut Axis> {
+        self.axes.iter_mut().find(|a| a.actuator_node_id == node)
+    }
+
+    fn on_nmt(&mut self, cmd: NmtCommand, now_s: f64, record: &mut dyn FnMut(Record)) {
+        match cmd {
+            NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
+                self.reset_faults(0, now_s, record);
+                // We are the NMT master: after a reset we boot again and start our nodes.
+                self.pending_reset = true;
+            }
+            other => {
+                self.state = self.state.on_command(other);
+            }
+        }
+        record(Record::Event(Event::OwnState {
+            t_s: now_s,
+            state: self.state,
+        }));
+    }
+
+    fn reset_faults(&mut self, axis_node: u8, now_s: f64, record: &mut dyn FnMut(Record)) {
+        for axis in self.axes.iter_mut() {
+            if axis_node == 0 || axis.actuator_node_id == axis_node {
+                axis.reset_faults();
+                record(Record::Event(Event::FaultsReset {
+                    t_s: now_s,
+                    axis_node_id: axis.actuator_node_id,
+                }));
+            }
+        }
+        // An EMCY "error reset" goes out with the next cycle's frames for each axis that had faults.
+        for (index, axis) in self.axes.iter().enumerate() {
+            if (axis_node == 0 || axis.actuator_node_id == axis_node)
+                && self.last_fault_state[index].0 == FaultState::Fault
+            {
+                self.announce_reset[index] = true;
+            }
+        }
+    }
+
+    /// Close the cycle: control every axis, send commands, EMCY and status, and record.
+    pub fn finish_cycle(
+        &mut self,
+        now_s: f64,
+        timing: CycleTiming,
+        send: &mut dyn FnMut(&Frame),
+        record: &mut dyn FnMut(Record),
+    ) {
+        let cycle = self.counters.cycles;
+        self.counters.cycles += 1;
+        self.latency_max_s = self.latency_max_s.max(timing.previous_cycle_latency_s);
+        if self.pending_reset {
+            self.pending_reset = false;
+            self.boot(send, record);
+        }
+        let operational = self.state == NmtState::Operational;
+        let sync_counter = self.sync.value();
+        let status_due = cycle % u64::from(self.status_every) == 0;
+        for index in 0..self.axes.len() {
+            let step = self.axes[index].step(now_s);
+            let axis = &self.axes[index];
+            let node = axis.actuator_node_id;
+            if !step.sensor_fresh {
+                self.counters.sensor_missed += 1;
+            }
+            if operational {
+                let command = match axis.command_kind {
+                    CommandKind::Voltage => CommandPdo {
+                        voltage_v: step.command,
+                        duty: 0.0,
+                        sync_counter,
+                    },
+                    CommandKind::Duty => CommandPdo {
+                        voltage_v: 0.0,
+                        duty: step.command,
+                        sync_counter,
+                    },
+                };
+                send(&command.encode(node));
+            }
+            for kind in step.supervision.raised.iter() {
+                self.counters.faults_raised += 1;
+                send(&Emcy::raised(node, kind, step.supervision.latched).encode(self.node_id));
+                record(Record::Event(Event::FaultRaised {
+                    t_s: now_s,
+                    axis_node_id: node,
+                    kind,
+                    cycle,
+                }));
+            }
+            let now_state = (step.supervision.state, step.supervision.latched.0);
+            let last = self.last_fault_state[index];
+            if std::mem::take(&mut self.announce_reset[index]) {
+                send(&Emcy::reset(node).encode(self.node_id));
+            }
+            if operational && (status_due || now_state != last) {
+                send(&fault_state_frame(node, &step).encode(self.node_id));
+            }
+            self.last_fault_state[index] = now_state;
+            if operational && status_due {
+                send(
+                    &TunedParametersPdo {
+                        axis_node_id: node,
+                        friction_compensation_v: step.friction_compensation,
+                        gain_schedule_factor: 1.0,
+                    }
+                    .encode(self.node_id),
+                );
+            }
+            record(Record::Cycle(cycle_record(
+                now_s, cycle, node, axis, &step, timing,
+            )));
+        }
+        if operational && status_due {
+            send(
+                &LoopStatusPdo {
+                    overruns: self.counters.overruns as u16,
+                    sensor_missed: self.counters.sensor_missed as u16,
+                    frames_malformed: self.counters.frames_malformed as u16,
+                    cycle_latency_max_s: self.latency_max_s,
+                }
+                .encode(self.node_id),
+            );
+            self.latency_max_s = 0.0;
+        }
+        if cycle % u64::from(self.heartbeat_every) == 0 {
+            send(&encode_heartbeat(self.node_id, self.state));
+        }
+        self.sync = self.sync.next();
+    }
+
+    /// Leave operation: every axis gets its safe command once.
+    pub fn shutdown(&mut self, send: &mut dyn FnMut(&Frame)) {
+        let sync_counter = self.sync.value();
+        for axis in &self.axes {
+            let safe = axis.safe_command();
+            let (voltage_v, duty) = match axis.command_kind {
+                CommandKind::Voltage => (safe, 0.0),
+                CommandKind::Duty => (0.0, safe),
+            };
+            send(
+                &CommandPdo {
+                    voltage_v,
+                    duty,
+                    sync_counter,
+                }
+                .encode(axis.actuator_node_id),
+            );
+        }
+        self.state = NmtState::Stopped;
+        send(&encode_heartbeat(self.node_id, self.state));
+    }
+
+    pub fn period_s(&self) -> f64 {
+        self.period_s
+    }
+}
+
+fn fault_state_frame(node: u8, step: &AxisStep) -> FaultStatePdo {
+    FaultStatePdo {
+        axis_node_id: node,
+        state: step.supervision.state,
+        flags: step.supervision.latched.union(step.supervision.pending),
+        following_error: step.following_error,
+    }
+}
+
+fn cycle_record(
+    t_s: f64,
+    cycle: u64,
+    node: u8,
+    axis: &Axis,
+    step: &AxisStep,
+    timing: CycleTiming,
+) -> CycleRecord {
+    let (command_voltage, command_duty) = match axis.command_kind {
+        CommandKind::Voltage => (step.command, 0.0),
+        CommandKind::Duty => (0.0, step.command),
+    };
+    CycleRecord {
+        t_s,
+        cycle,
+        axis_node_id: node,
+        setpoint_position: step.setpoint,
+        position: step.sensor.position,
+        current: step.sensor.current_a,
+        supply_voltage: step.sensor.supply_voltage_v,
+        supply_pressure: step.supply_pressure_pa,
+        command_voltage,
+        command_duty,
+        friction_compensation: step.friction_compensation,
+        following_error: step.following_error,
+        fault_state: step.supervision.state.code(),
+        fault_flags: step.supervision.latched.0,
+        sensor_fresh: step.sensor_fresh,
+        wake_latency: timing.wake_latency_s,
+        // Stamped by the cycle thread once the command is out.
+        cycle_latency: 0.0,
+    }
+}

@@ -1,0 +1,165 @@
+//! What the cycle reports: one record per axis and cycle, and events. Plain `Copy` data, so the
+//! real-time thread hands them over without allocating; the writer thread formats them.
+
+use crate::bus::{BusErrorFrame, Frame};
+use crate::canopen::{DecodeError, NmtState};
+use crate::supervise::FaultKind;
+use serde::Serialize;
+
+/// One axis in one cycle. Field names are the protocol's signal names (`dbc/actuatord.dbc`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+pub struct CycleRecord {
+    /// Seconds since the cycle started (the cycle's release time, not when it ran).
+    pub t_s: f64,
+    pub cycle: u64,
+    pub axis_node_id: u8,
+    pub setpoint_position: f64,
+    pub position: f64,
+    pub current: f64,
+    pub supply_voltage: f64,
+    pub supply_pressure: f64,
+    pub command_voltage: f64,
+    pub command_duty: f64,
+    pub friction_compensation: f64,
+    pub following_error: f64,
+    pub fault_state: u8,
+    pub fault_flags: u16,
+    /// The sensor frame of this cycle arrived before the sensor deadline.
+    pub sensor_fresh: bool,
+    /// Wake-up delay after the release time, s.
+    pub wake_latency: f64,
+    /// Delay from the release time to the command being sent, s.
+    pub cycle_latency: f64,
+}
+
+/// Something worth a log line and a place in the recording.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Event {
+    Started {
+        realtime: bool,
+        memory_locked: bool,
+    },
+    FaultRaised {
+        t_s: f64,
+        axis_node_id: u8,
+        kind: FaultKind,
+        cycle: u64,
+    },
+    FaultsReset {
+        t_s: f64,
+        axis_node_id: u8,
+    },
+    /// A frame with a known id but a layout that does not decode.
+    Malformed {
+        t_s: f64,
+        frame: Frame,
+        error: DecodeError,
+    },
+    /// A frame with an id nobody here uses (rate-limited by the sender of the event).
+    UnknownFrame {
+        t_s: f64,
+        frame: Frame,
+    },
+    BusError {
+        t_s: f64,
+        error: BusErrorFrame,
+    },
+    NodeState {
+        t_s: f64,
+        node_id: u8,
+        state: NmtState,
+    },
+    OwnState {
+        t_s: f64,
+        state: NmtState,
+    },
+    Overrun {
+        t_s: f64,
+        cycle: u64,
+        late_s: f64,
+    },
+}
+
+/// Everything the cycle sends to the writer thread.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Record {
+    Cycle(CycleRecord),
+    Event(Event),
+}
+
+impl Event {
+    pub fn t_s(&self) -> f64 {
+        match *self {
+            Event::Started { .. } => 0.0,
+            Event::FaultRaised { t_s, .. }
+            | Event::FaultsReset { t_s, .. }
+            | Event::Malformed { t_s, .. }
+            | Event::UnknownFrame { t_s, .. }
+            | Event::BusError { t_s, .. }
+            | Event::NodeState { t_s, .. }
+            | Event::OwnState { t_s, .. }
+            | Event::Overrun { t_s, .. } => t_s,
+        }
+    }
+
+    /// Short machine-readable kind, the `kind` field of the MCAP `events` channel.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Event::Started { .. } => "started",
+            Event::FaultRaised { .. } => "fault_raised",
+            Event::FaultsReset { .. } => "faults_reset",
+            Event::Malformed { .. } => "frame_malformed",
+            Event::UnknownFrame { .. } => "frame_unknown",
+            Event::BusError { .. } => "bus_error",
+            Event::NodeState { .. } => "node_state",
+            Event::OwnState { .. } => "own_state",
+            Event::Overrun { .. } => "overrun",
+        }
+    }
+}
+
+impl std::fmt::Display for Event {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Event::Started {
+                realtime,
+                memory_locked,
+            } => write!(
+                f,
+                "cycle started: SCHED_FIFO {}, memory {}",
+                if *realtime { "granted" } else { "NOT granted (normal scheduler, expect jitter)" },
+                if *memory_locked { "locked" } else { "NOT locked (page faults can stall the cycle)" }
+            ),
+            Event::FaultRaised {
+                t_s,
+                axis_node_id,
+                kind,
+                cycle,
+            } => write!(
+                f,
+                "t={t_s:.4}s axis {axis_node_id}: fault {kind} raised (cycle {cycle}), axis to safe state"
+            ),
+            Event::FaultsReset { t_s, axis_node_id } => {
+                write!(f, "t={t_s:.4}s axis {axis_node_id}: faults reset")
+            }
+            Event::Malformed { t_s, frame, error } => {
+                write!(f, "t={t_s:.4}s malformed frame {frame}: {error}")
+            }
+            Event::UnknownFrame { t_s, frame } => {
+                write!(f, "t={t_s:.4}s frame with unused id ignored: {frame}")
+            }
+            Event::BusError { t_s, error } => write!(f, "t={t_s:.4}s {error}"),
+            Event::NodeState {
+                t_s,
+                node_id,
+                state,
+            } => write!(f, "t={t_s:.4}s node {node_id} is {}", state.name()),
+            Event::OwnState { t_s, state } => write!(f, "t={t_s:.4}s controller is {}", state.name()),
+            Event::Overrun { t_s, cycle, late_s } => write!(
+                f,
+                "t={t_s:.4}s cycle {cycle} overran its period by {:.3} ms",
+                late_s * 1e3
+            ),
+        }
+    }
+}
