@@ -14,6 +14,7 @@ pub mod bus;
 pub mod canopen;
 pub mod control;
 pub mod daemon;
+pub mod demo;
 pub mod ident;
 pub mod lab;
 pub mod physics;

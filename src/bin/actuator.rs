@@ -1,1 +1,189 @@
-fn main() {}
+//! `actuator`: the user's tool. A simulated actuator node, the demo, the DBC.
+
+use actuatord::bus::SocketCanBus;
+use actuatord::physics::ScheduledFault;
+use actuatord::simnode::{run_sim_node, SimEvent, SimNode};
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+#[derive(Parser, Debug)]
+#[command(version, about = "Simulate actuators, run the demo, render the DBC")]
+struct Args {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// A simulated actuator node on a CAN interface: answers every SYNC with its sensor frame.
+    Sim {
+        #[arg(long, default_value = "vcan0")]
+        iface: String,
+        /// Plant file (TOML).
+        #[arg(long, default_value = "config/plants/solenoid.toml")]
+        plant: PathBuf,
+        #[arg(long, default_value_t = 16)]
+        node_id: u8,
+        /// Time the plant advances per SYNC; must match the controller's period.
+        #[arg(long, default_value_t = 0.0025)]
+        period_s: f64,
+        #[arg(long, default_value_t = 0.1)]
+        heartbeat_period_s: f64,
+        /// Fault to inject, e.g. friction_x3@5s, supply_x0.5@2s, sensor_stuck@1s, spring_x0.73~10s@5s
+        /// (time is the plant's: SYNCs received times the period). Repeatable.
+        #[arg(long = "fault")]
+        faults: Vec<ScheduledFault>,
+        /// Stop by itself after this many seconds.
+        #[arg(long)]
+        duration_s: Option<f64>,
+    },
+    /// Daemon and simulated solenoid in one process: no CAN hardware, no root.
+    Demo {
+        #[arg(long, default_value = "config/solenoid.toml")]
+        config: PathBuf,
+        #[arg(long, default_value = "config/plants/solenoid.toml")]
+        plant: PathBuf,
+        /// Where the MCAP recording goes.
+        #[arg(long, default_value = "demo.mcap")]
+        record: PathBuf,
+    },
+    /// Print the DBC of the protocol for the given node ids (dbc/actuatord.dbc is 1 and 16).
+    Dbc {
+        #[arg(long, default_value_t = 1)]
+        controller_node: u8,
+        #[arg(long, default_value_t = 16)]
+        actuator_node: u8,
+    },
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
+        )
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .init();
+    match run(Args::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("actuator: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(args: Args) -> anyhow::Result<()> {
+    match args.command {
+        Command::Sim {
+            iface,
+            plant,
+            node_id,
+            period_s,
+            heartbeat_period_s,
+            faults,
+            duration_s,
+        } => {
+            anyhow::ensure!(
+                (1..=127).contains(&node_id),
+                "--node-id must be 1..=127, got {node_id}"
+            );
+            anyhow::ensure!(period_s > 0.0, "--period-s must be > 0, got {period_s}");
+            anyhow::ensure!(
+                heartbeat_period_s > 0.0,
+                "--heartbeat-period-s must be > 0, got {heartbeat_period_s}"
+            );
+            let model = actuatord::physics::load_plant(&plant)?;
+            let mut bus = SocketCanBus::open(&iface)?;
+            eprintln!(
+                "actuator sim: {} node {node_id} on {iface}, {} ms per SYNC",
+                model.family().name(),
+                period_s * 1e3
+            );
+            let mut node = SimNode::new(node_id, model, period_s, faults);
+            let stop = Arc::new(AtomicBool::new(false));
+            watch_signals(stop.clone())?;
+            run_sim_node(
+                &mut bus,
+                &mut node,
+                Duration::from_secs_f64(heartbeat_period_s),
+                duration_s.map(Duration::from_secs_f64),
+                &stop,
+                &mut |e| {
+                    match e {
+                    SimEvent::FaultInjected {
+                        fault,
+                        plant_time_s,
+                        sync_count,
+                    } => eprintln!(
+                        "actuator sim: fault {} injected at plant time {plant_time_s:.4} s, after SYNC #{sync_count}",
+                        fault.fault
+                    ),
+                    SimEvent::StateChanged(s) => eprintln!("actuator sim: node is {}", s.name()),
+                    SimEvent::Malformed(f) => eprintln!("actuator sim: malformed frame ignored: {f}"),
+                }
+                },
+            )?;
+            let c = node.counters();
+            eprintln!(
+                "actuator sim: stopped after {} SYNCs, {} commands ({} late), {} malformed frames",
+                c.syncs, c.commands, c.late_commands, c.malformed
+            );
+            Ok(())
+        }
+        Command::Demo {
+            config,
+            plant,
+            record,
+        } => {
+            let script = actuatord::demo::Script::standard()?;
+            eprintln!(
+                "actuator demo: {:.1} s of closed-loop control at 400 Hz on the in-process bus ...",
+                script.duration_s
+            );
+            let summary = actuatord::demo::run(&config, &plant, &script, &record)?;
+            println!("{summary}");
+            Ok(())
+        }
+        Command::Dbc {
+            controller_node,
+            actuator_node,
+        } => {
+            print!(
+                "{}",
+                actuatord::canopen::dbc::render(controller_node, actuator_node)
+            );
+            Ok(())
+        }
+    }
+}
+
+/// Raise `stop` on SIGTERM or SIGINT, from a helper thread with a small runtime of its own.
+fn watch_signals(stop: Arc<AtomicBool>) -> anyhow::Result<()> {
+    use tokio::signal::unix::{signal, SignalKind};
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()?;
+    // Register before returning, so a signal sent right after start-up is not missed.
+    let (mut term, mut int) = rt.block_on(async {
+        anyhow::Ok((
+            signal(SignalKind::terminate())?,
+            signal(SignalKind::interrupt())?,
+        ))
+    })?;
+    std::thread::spawn(move || {
+        rt.block_on(async {
+            tokio::select! {
+                _ = term.recv() => {}
+                _ = int.recv() => {}
+            }
+        });
+        stop.store(true, Ordering::Relaxed);
+    });
+    Ok(())
+}

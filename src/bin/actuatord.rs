@@ -1,1 +1,127 @@
-fn main() {}
+//! `actuatord`: the control daemon. Argument parsing, start-up and shutdown only.
+
+use actuatord::bus::SocketCanBus;
+use actuatord::daemon::{run_cycle, Config, ControllerNode, CycleSettings, Recorder};
+use clap::Parser;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+/// Intelligent actuator control daemon: a fixed-rate control cycle over SocketCAN.
+#[derive(Parser, Debug)]
+#[command(version, about)]
+struct Args {
+    /// Configuration file (TOML).
+    #[arg(long, default_value = "/etc/actuatord/actuatord.toml")]
+    config: PathBuf,
+    /// CAN interface, overriding [bus] iface of the configuration.
+    #[arg(long)]
+    iface: Option<String>,
+    /// Record every cycle to this MCAP file.
+    #[arg(long)]
+    record: Option<PathBuf>,
+    /// Stop by itself after this many seconds (default: run until SIGTERM or SIGINT).
+    #[arg(long)]
+    duration_s: Option<f64>,
+    /// Log filter, e.g. "info" or "actuatord=debug" (RUST_LOG also works).
+    #[arg(long, default_value = "info")]
+    log: String,
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(&args.log));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .init();
+    match run(args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            tracing::error!("{e:#}");
+            eprintln!("actuatord: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(args: Args) -> anyhow::Result<()> {
+    let mut config = Config::load(&args.config)?;
+    if let Some(iface) = args.iface {
+        config.bus.iface = iface;
+    }
+    if let Some(d) = args.duration_s {
+        anyhow::ensure!(
+            d.is_finite() && d > 0.0,
+            "--duration-s must be > 0, got {d}"
+        );
+    }
+    let mut bus = SocketCanBus::open(&config.bus.iface)?;
+    let mut node = ControllerNode::new(&config)?;
+    let (sink, recorder) = Recorder::spawn(args.record.as_deref(), config.record.queue_depth)?;
+    tracing::info!(
+        config = %args.config.display(),
+        iface = %config.bus.iface,
+        period_ms = config.cycle.period_s * 1e3,
+        axes = config.axis.len(),
+        "starting"
+    );
+    let settings = CycleSettings {
+        period_s: config.cycle.period_s,
+        sensor_deadline_s: config.cycle.sensor_deadline_s,
+        realtime_priority: config.cycle.realtime_priority,
+        lock_memory: config.cycle.lock_memory,
+        duration_s: args.duration_s,
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let (done_tx, done_rx) = tokio::sync::oneshot::channel();
+    let cycle_stop = stop.clone();
+    let cycle_sink = sink.clone();
+    let cycle = std::thread::Builder::new()
+        .name("actuatord-cycle".into())
+        .spawn(move || {
+            let result = run_cycle(&mut bus, &mut node, settings, &cycle_stop, &cycle_sink);
+            let _ = done_tx.send(());
+            (result, node.counters())
+        })?;
+    drop(sink);
+
+    // Signals are handled off the real-time thread, on a small runtime of their own.
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()?;
+    runtime.block_on(async {
+        use tokio::signal::unix::{signal, SignalKind};
+        let mut term = signal(SignalKind::terminate())?;
+        let mut int = signal(SignalKind::interrupt())?;
+        tokio::select! {
+            _ = term.recv() => tracing::info!("SIGTERM: commanding the safe state and stopping"),
+            _ = int.recv() => tracing::info!("SIGINT: commanding the safe state and stopping"),
+            _ = done_rx => {}
+        }
+        anyhow::Ok(())
+    })?;
+    stop.store(true, Ordering::Relaxed);
+    let (result, counters) = cycle
+        .join()
+        .map_err(|_| anyhow::anyhow!("the cycle thread panicked"))?;
+    let report = recorder.finish()?;
+    let cycle = result?;
+    tracing::info!(
+        cycles = cycle.cycles,
+        overruns = cycle.overruns,
+        sensor_missed = counters.sensor_missed,
+        frames_malformed = counters.frames_malformed,
+        frames_unknown = counters.frames_unknown,
+        faults_raised = counters.faults_raised,
+        records_dropped = report.dropped,
+        "stopped"
+    );
+    if let Some(path) = report.path {
+        tracing::info!("recording written: {}", path.display());
+    }
+    Ok(())
+}

@@ -91,9 +91,7 @@ fn cob_id(m: &Message, controller_node: u8, actuator_node: u8) -> u32 {
 }
 
 fn receivers(m: &Message) -> &'static str {
-    if m.transmitter == NODE_ACTUATOR {
-        NODE_CONTROLLER
-    } else if m.transmitter == NODE_AUTOMATION {
+    if m.transmitter == NODE_ACTUATOR || m.transmitter == NODE_AUTOMATION {
         NODE_CONTROLLER
     } else {
         NODE_ACTUATOR

@@ -49,16 +49,16 @@ impl Message {
     }
 }
 
-/// Names of the fault flags, bit 0 first; the same words as `supervise::FaultKind`.
+/// Signal names of the fault flags, bit 0 first: `fault_` and the name of `supervise::FaultKind`.
 pub const FAULT_FLAG_NAMES: [&str; 8] = [
-    "following_error",
-    "end_of_range",
-    "overcurrent",
-    "supply_voltage",
-    "supply_pressure",
-    "sensor_timeout",
-    "heartbeat_lost",
-    "node_state",
+    "fault_following_error",
+    "fault_end_of_range",
+    "fault_overcurrent",
+    "fault_supply_voltage",
+    "fault_supply_pressure",
+    "fault_sensor_timeout",
+    "fault_heartbeat_lost",
+    "fault_node_state",
 ];
 
 const fn flag(bit: u16, name: &'static str, comment: &'static str) -> Signal {
@@ -92,42 +92,42 @@ macro_rules! fault_flags {
         [
             flag(
                 $base,
-                "following_error",
+                "fault_following_error",
                 "|setpoint - position| above its limit for longer than allowed",
             ),
             flag(
                 $base + 1,
-                "end_of_range",
+                "fault_end_of_range",
                 "position outside the configured travel",
             ),
             flag(
                 $base + 2,
-                "overcurrent",
+                "fault_overcurrent",
                 "current above its limit for longer than allowed",
             ),
             flag(
                 $base + 3,
-                "supply_voltage",
+                "fault_supply_voltage",
                 "supply voltage outside its band",
             ),
             flag(
                 $base + 4,
-                "supply_pressure",
+                "fault_supply_pressure",
                 "supply pressure outside its band",
             ),
             flag(
                 $base + 5,
-                "sensor_timeout",
+                "fault_sensor_timeout",
                 "sensor frames missing for too many cycles",
             ),
             flag(
                 $base + 6,
-                "heartbeat_lost",
+                "fault_heartbeat_lost",
                 "actuator node heartbeat missing",
             ),
             flag(
                 $base + 7,
-                "node_state",
+                "fault_node_state",
                 "actuator node left the operational state",
             ),
         ]
@@ -476,6 +476,20 @@ pub const ALL: [&Message; 13] = [
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn signal_names_are_unique_within_a_frame() {
+        for m in ALL {
+            for (i, s) in m.signals.iter().enumerate() {
+                assert!(
+                    m.signals[..i].iter().all(|o| o.name != s.name),
+                    "{}.{} twice",
+                    m.name,
+                    s.name
+                );
+            }
+        }
+    }
 
     #[test]
     fn every_signal_fits_its_frame_and_no_two_overlap() {

@@ -49,7 +49,7 @@ impl DiscreteController {
         if q.iter().any(|x| !x.is_finite()) {
             return Err(ControllerError::NotFinite("q"));
         }
-        if !(u_min < u_max) {
+        if u_min.partial_cmp(&u_max) != Some(std::cmp::Ordering::Less) {
             return Err(ControllerError::Limits(u_min, u_max));
         }
         let mut pa = [0.0; MAX_ORDER];

@@ -42,7 +42,9 @@ pub fn run_cycle(
         settings.realtime_priority > 0 && rt::set_fifo_priority(settings.realtime_priority).is_ok();
     let memory_locked = settings.lock_memory && rt::lock_memory().is_ok();
     sink.push(Record::Event(Event::Started {
+        realtime_requested: settings.realtime_priority > 0,
         realtime,
+        lock_requested: settings.lock_memory,
         memory_locked,
     }));
 

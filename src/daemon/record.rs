@@ -4,10 +4,10 @@
 use crate::bus::{BusErrorFrame, Frame};
 use crate::canopen::{DecodeError, NmtState};
 use crate::supervise::FaultKind;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// One axis in one cycle. Field names are the protocol's signal names (`dbc/actuatord.dbc`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
 pub struct CycleRecord {
     /// Seconds since the cycle started (the cycle's release time, not when it ran).
     pub t_s: f64,
@@ -36,7 +36,9 @@ pub struct CycleRecord {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Event {
     Started {
+        realtime_requested: bool,
         realtime: bool,
+        lock_requested: bool,
         memory_locked: bool,
     },
     FaultRaised {
@@ -122,13 +124,25 @@ impl std::fmt::Display for Event {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Event::Started {
+                realtime_requested,
                 realtime,
+                lock_requested,
                 memory_locked,
             } => write!(
                 f,
                 "cycle started: SCHED_FIFO {}, memory {}",
-                if *realtime { "granted" } else { "NOT granted (normal scheduler, expect jitter)" },
-                if *memory_locked { "locked" } else { "NOT locked (page faults can stall the cycle)" }
+                match (realtime_requested, realtime) {
+                    (false, _) => "not requested",
+                    (true, true) => "granted",
+                    (true, false) =>
+                        "NOT granted (needs CAP_SYS_NICE or LimitRTPRIO; normal scheduler, expect jitter)",
+                },
+                match (lock_requested, memory_locked) {
+                    (false, _) => "lock not requested",
+                    (true, true) => "locked",
+                    (true, false) =>
+                        "NOT locked (needs CAP_IPC_LOCK or LimitMEMLOCK; page faults can stall the cycle)",
+                }
             ),
             Event::FaultRaised {
                 t_s,

@@ -86,7 +86,7 @@ pub struct RecorderReport {
 #[derive(Debug, thiserror::Error)]
 pub enum RecorderError {
     #[error("recording {path}: {message}")]
-    Write { path: PathBuf, message: String },
+    File { path: PathBuf, message: String },
     #[error("recorder thread panicked")]
     Panicked,
 }
@@ -112,7 +112,7 @@ impl Recorder {
         let handle = std::thread::Builder::new()
             .name("actuatord-recorder".into())
             .spawn(move || write_loop(rx, writer))
-            .map_err(|e| RecorderError::Write {
+            .map_err(|e| RecorderError::File {
                 path: path.map(Path::to_path_buf).unwrap_or_default(),
                 message: format!("cannot start the writer thread: {e}"),
             })?;
@@ -144,7 +144,7 @@ struct McapOut {
 
 impl McapOut {
     fn create(path: &Path) -> Result<Self, RecorderError> {
-        let err = |message: String| RecorderError::Write {
+        let err = |message: String| RecorderError::File {
             path: path.to_path_buf(),
             message,
         };
@@ -176,7 +176,7 @@ impl McapOut {
     }
 
     fn err(&self, e: impl std::fmt::Display) -> RecorderError {
-        RecorderError::Write {
+        RecorderError::File {
             path: self.path.clone(),
             message: e.to_string(),
         }
@@ -223,6 +223,26 @@ impl McapOut {
     }
 }
 
+/// Read the cycle records of an MCAP recording back, in file order.
+pub fn read_cycles(path: &Path) -> Result<Vec<CycleRecord>, RecorderError> {
+    let err = |message: String| RecorderError::File {
+        path: path.to_path_buf(),
+        message,
+    };
+    let bytes = std::fs::read(path).map_err(|e| err(e.to_string()))?;
+    let stream = mcap::MessageStream::new(&bytes).map_err(|e| err(e.to_string()))?;
+    let mut cycles = Vec::new();
+    for (i, message) in stream.enumerate() {
+        let message = message.map_err(|e| err(format!("message {i}: {e}")))?;
+        if message.channel.topic == CYCLE_TOPIC {
+            let record = serde_json::from_slice(&message.data)
+                .map_err(|e| err(format!("message {i} on {CYCLE_TOPIC}: {e}")))?;
+            cycles.push(record);
+        }
+    }
+    Ok(cycles)
+}
+
 fn log_event(e: &Event) {
     match e {
         Event::FaultRaised { .. } | Event::Overrun { .. } | Event::BusError { .. } => {
@@ -230,9 +250,13 @@ fn log_event(e: &Event) {
         }
         Event::Malformed { .. } => tracing::warn!(kind = e.kind(), "{e}"),
         Event::Started {
+            realtime_requested,
             realtime,
+            lock_requested,
             memory_locked,
-        } if !realtime || !memory_locked => tracing::warn!(kind = e.kind(), "{e}"),
+        } if (*realtime_requested && !realtime) || (*lock_requested && !memory_locked) => {
+            tracing::warn!(kind = e.kind(), "{e}")
+        }
         _ => tracing::info!(kind = e.kind(), "{e}"),
     }
 }

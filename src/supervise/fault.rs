@@ -154,7 +154,10 @@ mod tests {
 
     #[test]
     fn bus_names_match_the_protocol_table() {
-        let names: Vec<_> = FaultKind::ALL.iter().map(|k| k.name()).collect();
+        let names: Vec<_> = FaultKind::ALL
+            .iter()
+            .map(|k| format!("fault_{}", k.name()))
+            .collect();
         assert_eq!(names, crate::canopen::FAULT_FLAG_NAMES);
     }
 }
