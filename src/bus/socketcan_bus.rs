@@ -3,6 +3,7 @@
 use super::{Bus, BusError, BusErrorFrame, BusEvent, Frame};
 use socketcan::{CanFrame, CanSocket, EmbeddedFrame, Frame as _, Socket, SocketOptions};
 use std::io::ErrorKind;
+use std::os::fd::AsRawFd;
 use std::time::{Duration, Instant};
 
 /// A raw SocketCAN socket with error frames requested, so bus-off and friends are reported.
@@ -23,10 +24,35 @@ impl SocketCanBus {
         };
         let socket = CanSocket::open(iface).map_err(io)?;
         socket.set_error_filter_accept_all().map_err(io)?;
+        // Reads never block; waiting is done with ppoll, whose timeout has nanosecond resolution
+        // and costs no socket option change per call.
+        socket.set_nonblocking(true).map_err(io)?;
         Ok(Self {
             iface: iface.to_string(),
             socket,
         })
+    }
+
+    /// Wait until a frame is readable or `timeout` passed (either way the caller reads again).
+    fn wait_readable(&self, timeout: Duration) -> Result<(), BusError> {
+        let mut pfd = libc::pollfd {
+            fd: self.socket.as_raw_fd(),
+            events: libc::POLLIN,
+            revents: 0,
+        };
+        let ts = libc::timespec {
+            tv_sec: timeout.as_secs() as libc::time_t,
+            tv_nsec: timeout.subsec_nanos() as libc::c_long,
+        };
+        // SAFETY: one valid pollfd, a valid timespec, no signal mask change.
+        let rc = unsafe { libc::ppoll(&mut pfd, 1, &ts, std::ptr::null()) };
+        if rc < 0 {
+            let e = std::io::Error::last_os_error();
+            if e.kind() != ErrorKind::Interrupted {
+                return Err(self.io(e));
+            }
+        }
+        Ok(())
     }
 
     fn io(&self, source: std::io::Error) -> BusError {
@@ -55,15 +81,6 @@ impl Bus for SocketCanBus {
 
     fn recv_until(&mut self, deadline: Instant) -> Result<Option<BusEvent>, BusError> {
         loop {
-            let left = deadline.saturating_duration_since(Instant::now());
-            if left.is_zero() {
-                return Ok(None);
-            }
-            // A zero timeout means "block forever" to the kernel, so never pass less than 1 µs.
-            let timeout = left.max(Duration::from_micros(1));
-            self.socket
-                .set_read_timeout(timeout)
-                .map_err(|e| self.io(e))?;
             match self.socket.read_frame() {
                 Ok(CanFrame::Data(f)) => {
                     let frame = if f.is_extended() {
@@ -87,8 +104,12 @@ impl Bus for SocketCanBus {
                 }
                 // Remote frames carry no data this protocol uses.
                 Ok(CanFrame::Remote(_)) => {}
-                Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {
-                    return Ok(None)
+                Err(e) if e.kind() == ErrorKind::WouldBlock => {
+                    let left = deadline.saturating_duration_since(Instant::now());
+                    if left.is_zero() {
+                        return Ok(None);
+                    }
+                    self.wait_readable(left)?;
                 }
                 Err(e) if e.kind() == ErrorKind::Interrupted => {}
                 Err(e) => return Err(self.io(e)),

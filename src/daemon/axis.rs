@@ -141,6 +141,11 @@ impl Axis {
         }
     }
 
+    /// A new cycle: the readings held so far are from before its SYNC.
+    pub fn begin_cycle(&mut self) {
+        self.sensor_fresh = false;
+    }
+
     pub fn has_fresh_sensor(&self) -> bool {
         self.sensor_fresh
     }

@@ -78,15 +78,18 @@ pub fn run_cycle(
         let release = start_instant + Duration::from_nanos(k * period_ns);
         let t_s = (k * period_ns) as f64 * 1e-9;
 
+        // Whatever is queued now arrived before this cycle's SYNC: handle it (setpoints, NMT,
+        // heartbeats, sensor frames that missed the last deadline), then mark every axis as
+        // waiting, so a late frame can never pass for this cycle's and add a period of lag.
+        while let Some(event) = bus.recv_until(Instant::now())? {
+            on_event(node, event, t_s, &mut record);
+        }
+        node.begin_cycle();
         bus.send(&node.sync_frame())?;
         let sensor_deadline = release + sensor_wait;
         while !node.all_sensors_in() {
             match bus.recv_until(sensor_deadline)? {
-                Some(BusEvent::Frame(frame)) => node.handle(&frame, t_s, &mut record),
-                Some(BusEvent::ErrorFrame(error)) => {
-                    node.counters_mut().bus_errors += 1;
-                    record(Record::Event(Event::BusError { t_s, error }));
-                }
+                Some(event) => on_event(node, event, t_s, &mut record),
                 None => break,
             }
         }
@@ -148,4 +151,14 @@ pub fn run_cycle(
         realtime,
         memory_locked,
     })
+}
+
+fn on_event(node: &mut ControllerNode, event: BusEvent, t_s: f64, record: &mut dyn FnMut(Record)) {
+    match event {
+        BusEvent::Frame(frame) => node.handle(&frame, t_s, record),
+        BusEvent::ErrorFrame(error) => {
+            node.counters_mut().bus_errors += 1;
+            record(Record::Event(Event::BusError { t_s, error }));
+        }
+    }
 }

@@ -113,6 +113,13 @@ impl ControllerNode {
         }));
     }
 
+    /// Open a cycle: from now on only sensor frames answering this cycle's SYNC count as fresh.
+    pub fn begin_cycle(&mut self) {
+        for axis in self.axes.iter_mut() {
+            axis.begin_cycle();
+        }
+    }
+
     /// The SYNC that opens a cycle.
     pub fn sync_frame(&mut self) -> Frame {
         self.sync.encode()

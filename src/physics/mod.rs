@@ -89,8 +89,21 @@ pub trait Plant: Send {
     /// Simulated time in s since construction.
     fn time_s(&self) -> f64;
     /// Set the actual supply (V, or absolute Pa for pneumatic), e.g. a manifold pressure that
-    /// varies; faults of the supply act on top of it.
-    fn set_supply(&mut self, value: f64);
+    /// varies; faults of the supply act on top of it. All four families implement it; the
+    /// default (for plants without a supply) ignores the value.
+    fn set_supply(&mut self, value: f64) {
+        let _ = value;
+    }
+    /// True position of the drive side of the transmission (gear output angle for motor_gear,
+    /// the same as `truth().position` where there is no transmission): shows backlash.
+    fn drive_position(&self) -> f64 {
+        self.truth().position
+    }
+    /// Mechanical energy stored in the moving bodies and the springs of the transmission, in J
+    /// (for energy-balance checks); `None` where a family does not report it.
+    fn energy_j(&self) -> Option<f64> {
+        None
+    }
     /// Run `commands`, one step of `dt_s` each, appending the sensor reading after each step.
     fn simulate(&mut self, commands: &[f64], dt_s: f64, out: &mut Vec<Measurement>) {
         out.reserve(commands.len());

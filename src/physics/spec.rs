@@ -64,8 +64,9 @@ fn default_command(family: Family) -> CommandUnit {
 /// Default largest sub-step per family, about a tenth of its fastest time constant.
 fn default_substep(family: Family) -> f64 {
     match family {
-        // T_I = 8.6 ms and 1/ω0 = 17 ms: 0.25 ms resolves both and end-stop impacts.
-        Family::Solenoid => 2.5e-4,
+        // T_I = 8.6 ms and 1/ω0 = 17 ms: 0.5 ms (T_I / 17) keeps RK4 accurate to far below the
+        // sensor resolution; impacts and stick-slip are located as events anyway.
+        Family::Solenoid => 5e-4,
         Family::LinearAxis => 1e-4,
         // τ = 2 ms.
         Family::Pneumatic => 2.5e-4,
@@ -415,15 +416,15 @@ impl PlantSpec {
                     faults,
                 ))
             }
-            Family::MotorGear => {
-                let _ = stops(13, 14)?;
-                return Err(PhysicsError::invalid(
-                    origin,
-                    fam,
-                    "family",
-                    "is not built yet",
-                ));
-            }
+            Family::MotorGear => Box::new(motor_gear::MotorGearPlant::new(
+                &b,
+                self.command == CommandUnit::NewtonMetre,
+                fx,
+                sensor,
+                faults,
+                self.max_substep_s,
+                stops(13, 14)?,
+            )),
         })
     }
 

@@ -16,6 +16,9 @@ impl SupplyGain {
     /// Gain factor for a supply at `ratio = S / S_nom`.
     #[inline]
     pub fn factor(&self, ratio: f64) -> f64 {
+        if ratio == 1.0 {
+            return 1.0;
+        }
         ratio.max(0.0).powf(self.exponent)
     }
 }

@@ -452,4 +452,14 @@ impl<D: Drive> Plant for BodyPlant<D> {
             self.supply_ext = self.drive.supply_ratio_of(value).max(0.0);
         }
     }
+
+    /// `½ m v² + F_0 y + ½ c y²` (kinetic plus spring energy).
+    fn energy_j(&self) -> Option<f64> {
+        let (y, v) = (self.x[0], self.x[1]);
+        let spring = self
+            .fx
+            .spring
+            .map_or(0.0, |s| s.pretension * y + 0.5 * s.stiffness * y * y);
+        Some(0.5 * self.body.mass * v * v + spring)
+    }
 }

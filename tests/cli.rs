@@ -1,0 +1,77 @@
+//! Whole-program behaviour of the binaries that needs no CAN interface.
+
+use std::process::Command;
+
+fn actuatord() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_actuatord"))
+}
+
+fn root(path: &str) -> String {
+    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
+}
+
+#[test]
+fn a_missing_interface_is_a_clear_error_and_a_failure() {
+    let out = actuatord()
+        .args([
+            "--config",
+            &root("config/solenoid.toml"),
+            "--iface",
+            "nosuchcan7",
+        ])
+        .output()
+        .expect("actuatord runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("CAN interface nosuchcan7 does not exist"),
+        "{err}"
+    );
+}
+
+#[test]
+fn an_invalid_config_names_file_key_and_rule_and_the_daemon_refuses_to_start() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let bad = dir.path().join("bad.toml");
+    let text = std::fs::read_to_string(root("config/solenoid.toml"))
+        .expect("config")
+        .replace("sensor_deadline_s = 0.0015", "sensor_deadline_s = 0.004");
+    std::fs::write(&bad, text).expect("write");
+    let out = actuatord()
+        .args(["--config", bad.to_str().expect("utf-8 path")])
+        .output()
+        .expect("actuatord runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(
+            "bad.toml: [cycle] sensor_deadline_s must be shorter than period_s (0.0025), got 0.004"
+        ),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_missing_config_file_is_named() {
+    let out = actuatord()
+        .args(["--config", "/nonexistent/actuatord.toml"])
+        .output()
+        .expect("actuatord runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("/nonexistent/actuatord.toml: cannot read"),
+        "{err}"
+    );
+}
+
+#[test]
+fn the_dbc_command_prints_the_committed_dbc() {
+    let out = Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .arg("dbc")
+        .output()
+        .expect("actuator runs");
+    assert!(out.status.success());
+    let committed = std::fs::read_to_string(root("dbc/actuatord.dbc")).expect("dbc");
+    assert_eq!(String::from_utf8_lossy(&out.stdout), committed);
+}

@@ -1,0 +1,95 @@
+//! Pneumatic membrane drive: speed = gain × duty at each supply pressure (paper's integrator).
+
+use actuatord::physics::{load_spec, EffectKind, PlantSpec};
+use std::path::Path;
+
+fn spec() -> PlantSpec {
+    load_spec(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/config/plants/pneumatic.toml"
+    )))
+    .unwrap()
+}
+
+const ATM: f64 = 101_325.0;
+const P_NOM: f64 = 60_000.0;
+const KAPPA: f64 = 1.35;
+
+fn gain_at(p_l: f64, k_nom: f64) -> f64 {
+    k_nom * ((ATM - p_l) / (ATM - P_NOM)).powf(KAPPA)
+}
+
+#[test]
+fn speed_is_gain_times_duty_at_each_supply_pressure() {
+    let mut s = spec();
+    s.remove_effect(EffectKind::Coulomb);
+    s.remove_effect(EffectKind::Stiction);
+    for p_l in [40_000.0, 60_000.0, 80_000.0] {
+        for duty in [-1.0, -0.4, 0.3, 1.0] {
+            let mut p = s.build().unwrap();
+            p.set_supply(p_l);
+            // 20 ms = 10 τ: the speed has settled; mid-stroke start, 20 mm / 50 mm/s = 0.4 s.
+            for _ in 0..3 {
+                p.step(duty, 0.01);
+            }
+            let k = if duty < 0.0 { 0.030 } else { 0.022 };
+            let v = gain_at(p_l, k) * duty;
+            assert!(
+                (p.truth().velocity - v).abs() < 1e-4 * v.abs(),
+                "P_L {p_l} duty {duty}: v {} expected {v}",
+                p.truth().velocity
+            );
+            assert!((p.truth().supply_pressure_pa - p_l).abs() < 1e-6);
+        }
+    }
+    // The paper's band: 12 mm/s at 800 mbar to 50 mm/s at 400 mbar, same exponent.
+    let ratio = gain_at(40_000.0, 1.0) / gain_at(80_000.0, 1.0);
+    assert!((ratio - 50.0 / 12.0).abs() < 0.05, "{ratio}");
+}
+
+#[test]
+fn integrates_like_the_paper_model_at_t0() {
+    // Y(k) = Y(k-1) + K_I T0 U(k-1) once the 2 ms lag is over.
+    let mut s = spec();
+    s.remove_effect(EffectKind::Coulomb);
+    s.remove_effect(EffectKind::Stiction);
+    let mut p = s.build().unwrap();
+    let t0 = 0.02;
+    p.step(0.5, t0);
+    let y1 = p.truth().position;
+    p.step(0.5, t0);
+    let y2 = p.truth().position;
+    assert!(((y2 - y1) - 0.022 * 0.5 * t0).abs() < 1e-9);
+}
+
+#[test]
+fn small_duty_does_not_move_the_membrane_against_stiction() {
+    let mut p = spec().build().unwrap();
+    let y0 = p.truth().position;
+    // Breakaway 0.15 N over m/τ = 100 N·s/m: 1.5 mm/s, duty 0.05 down (30 mm/s full).
+    for _ in 0..100 {
+        p.step(-0.045, 0.02);
+    }
+    assert_eq!(p.truth().position, y0);
+    for _ in 0..10 {
+        p.step(-0.2, 0.02);
+    }
+    assert!(p.truth().position < y0);
+    // Sliding speed: duty·K_I - F_C / (m/τ).
+    let v = -0.2 * 0.030 + 0.05 / 100.0;
+    assert!((p.truth().velocity - v).abs() < 1e-6);
+}
+
+#[test]
+fn supply_fault_slows_it_down() {
+    let mut s = spec();
+    s.remove_effect(EffectKind::Coulomb);
+    s.remove_effect(EffectKind::Stiction);
+    let mut p = s.build().unwrap();
+    p.inject("supply_x0.5".parse().unwrap());
+    p.step(1.0, 0.05);
+    assert!((p.truth().velocity - 0.022 * 0.5f64.powf(KAPPA)).abs() < 1e-7);
+    // Available pressure difference halved: P_L halfway to atmosphere.
+    let p_l = ATM - 0.5 * (ATM - P_NOM);
+    assert!((p.truth().supply_pressure_pa - p_l).abs() < 1e-6);
+}

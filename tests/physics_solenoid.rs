@@ -1,0 +1,234 @@
+//! Solenoid family against hand-computable physics and the paper's identified model.
+
+use actuatord::physics::{load_spec, EffectKind, Fault, Plant, PlantSpec};
+use nalgebra::{Matrix3, Vector3};
+use std::path::Path;
+
+fn spec() -> PlantSpec {
+    load_spec(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/config/plants/solenoid.toml"
+    )))
+    .unwrap()
+}
+
+fn plant() -> Box<dyn Plant> {
+    spec().build().unwrap()
+}
+
+fn hold(p: &mut dyn Plant, u: f64, seconds: f64) {
+    for _ in 0..(seconds / 0.0025).round() as usize {
+        p.step(u, 0.0025);
+    }
+}
+
+const K: f64 = 1.63; // K_I K_Mag, N/V
+const C: f64 = 1650.0;
+const F0: f64 = 3.0;
+const FS: f64 = 0.23;
+
+#[test]
+fn rests_on_its_stop_below_the_pretension_threshold() {
+    let mut p = plant();
+    hold(p.as_mut(), 0.0, 1.0);
+    assert_eq!(p.truth().position, 0.0);
+    // (F_0 + F_S) / K = 1.98 V: just below, nothing moves.
+    hold(p.as_mut(), 1.95, 2.0);
+    assert_eq!(p.truth().position, 0.0);
+    assert_eq!(p.truth().velocity, 0.0);
+    hold(p.as_mut(), 2.1, 2.0);
+    assert!(p.truth().position > 0.0);
+    assert!((p.time_s() - 5.0).abs() < 1e-9);
+}
+
+#[test]
+fn static_gain_matches_paper_within_the_friction_band() {
+    for u in [6.0, 12.0, 20.0] {
+        let mut p = plant();
+        hold(p.as_mut(), u, 3.0);
+        let y = p.truth().position;
+        let expected = (K * u - F0) / C;
+        assert!(
+            (y - expected).abs() <= FS / C + 1e-7,
+            "U {u}: y {y} expected {expected} ± {}",
+            FS / C
+        );
+        // DC gain 0.987 mm/V (G+).
+        assert!((K / C * 1000.0 - 0.987).abs() < 0.002);
+    }
+}
+
+#[test]
+fn breakaway_happens_exactly_at_the_stiction_level() {
+    // Held at y, the net force without friction is f0 = K U - F_0 - c y; it breaks loose when
+    // K U' - F_0 - c y leaves [-F_S, F_S].
+    let mut p = plant();
+    hold(p.as_mut(), 10.0, 3.0);
+    let y = p.truth().position;
+    assert_eq!(p.truth().velocity, 0.0);
+    let f0 = K * 10.0 - F0 - C * y;
+    assert!(f0.abs() <= FS + 1e-9);
+    let u_up = 10.0 + (FS - f0) / K;
+    hold(p.as_mut(), u_up - 0.002, 2.0);
+    assert_eq!(p.truth().position, y, "held below breakaway");
+    let u_down = 10.0 - (FS + f0) / K;
+    hold(p.as_mut(), u_down + 0.002, 2.0);
+    assert_eq!(p.truth().position, y, "held below breakaway, other side");
+    hold(p.as_mut(), u_up + 0.01, 2.0);
+    assert!(p.truth().position > y, "moves above breakaway");
+}
+
+/// Linear third-order model without dry friction:
+/// `T_I I' + I = K_I U`, `m y'' + d y' + c y = K_Mag I - F_0`, integrated exactly by the
+/// matrix exponential.
+#[test]
+fn linear_response_matches_the_paper_model() {
+    let mut s = spec();
+    s.remove_effect(EffectKind::Coulomb);
+    s.remove_effect(EffectKind::Stiction);
+    s.set("viscous.damping_neg_n_s_per_m", 20.0).unwrap();
+    let mut p = s.build().unwrap();
+    // Operating point 8 V (y = 6.08 mm), then a 4 V step.
+    hold(p.as_mut(), 8.0, 3.0);
+    let (m, d, ti, ki, km) = (0.4956, 20.0, 0.00859, 0.1, 16.3);
+    let a = Matrix3::new(0.0, 1.0, 0.0, -C / m, -d / m, km / m, 0.0, 0.0, -1.0 / ti);
+    let y_ss = |u: f64| (K * u - F0) / C;
+    let x0 = Vector3::new(y_ss(8.0), 0.0, ki * 8.0);
+    let x_ss = Vector3::new(y_ss(12.0), 0.0, ki * 12.0);
+    assert!((p.truth().position - x0[0]).abs() < 1e-9);
+    let mut worst: f64 = 0.0;
+    for k in 1..=200 {
+        p.step(12.0, 0.0025);
+        let t = k as f64 * 0.0025;
+        let x = x_ss + (a * t).exp() * (x0 - x_ss);
+        worst = worst.max((p.truth().position - x[0]).abs());
+        assert!((p.truth().current_a - x[2]).abs() < 1e-7);
+    }
+    assert!(worst < 1e-8, "max deviation {worst} m");
+    // The model's poles are the paper's G+: s + 116.4 and s² + 40.4 s + 3329.4.
+    assert!((1.0 / ti - 116.4).abs() < 0.1);
+    assert!((d / m - 40.4).abs() < 0.05);
+    assert!((C / m - 3329.4).abs() < 1.0);
+}
+
+#[test]
+fn stops_at_the_pulled_in_end_stop() {
+    let mut s = spec();
+    s.set("spring.pretension_n", 0.0).unwrap();
+    s.set("spring.stiffness_n_per_m", 1000.0).unwrap();
+    let mut p = s.build().unwrap();
+    hold(p.as_mut(), 24.0, 2.0);
+    assert_eq!(p.truth().position, 0.025);
+    assert_eq!(p.truth().velocity, 0.0);
+}
+
+fn static_position(fault: Option<&str>, u: f64) -> f64 {
+    let mut s = spec();
+    s.remove_effect(EffectKind::Coulomb);
+    s.remove_effect(EffectKind::Stiction);
+    let mut p = s.build().unwrap();
+    if let Some(f) = fault {
+        p.inject(f.parse::<Fault>().unwrap());
+    }
+    hold(p.as_mut(), u, 4.0);
+    p.truth().position
+}
+
+#[test]
+fn the_four_paper_faults_change_the_statics_as_the_model_says() {
+    let u = 12.0;
+    let tol = 1e-9;
+    // F1: pretension 1.5 × 3 N.
+    assert!((static_position(Some("spring_pretension_x1.5"), u) - (K * u - 4.5) / C).abs() < tol);
+    // F2: 1650 → 1200 N/m.
+    let k2 = 1200.0 / 1650.0;
+    assert!(
+        (static_position(Some(&format!("spring_x{k2}")), u) - (K * u - F0) / 1200.0).abs() < tol
+    );
+    // F4: current loop gain halved.
+    assert!((static_position(Some("current_gain_x0.5"), u) - (0.5 * K * u - F0) / C).abs() < tol);
+    // Supply halved, PWM duty computed for 24 V (supply_gain exponent 1): half the voltage.
+    assert!((static_position(Some("supply_x0.5"), u) - (0.5 * K * u - F0) / C).abs() < tol);
+    assert!((static_position(None, u) - (K * u - F0) / C).abs() < tol);
+}
+
+#[test]
+fn friction_fault_widens_the_band_and_jamming_locks() {
+    // F3: friction × 3 raises the voltage needed to leave the rest stop by 2 F_S / K.
+    let mut p = plant();
+    p.inject("friction_x3".parse().unwrap());
+    hold(p.as_mut(), (F0 + 3.0 * FS) / K - 0.02, 2.0);
+    assert_eq!(p.truth().position, 0.0);
+    hold(p.as_mut(), (F0 + 3.0 * FS) / K + 0.05, 2.0);
+    assert!(p.truth().position > 0.0);
+    let mut q = plant();
+    hold(q.as_mut(), 10.0, 2.0);
+    let y = q.truth().position;
+    q.inject("jamming".parse().unwrap());
+    hold(q.as_mut(), 24.0, 2.0);
+    assert_eq!(q.truth().position, y);
+    hold(q.as_mut(), 0.0, 2.0);
+    assert_eq!(q.truth().position, y);
+}
+
+#[test]
+fn a_drifting_fault_grows_linearly() {
+    let mut s = spec();
+    s.remove_effect(EffectKind::Coulomb);
+    s.remove_effect(EffectKind::Stiction);
+    s.faults.push("current_gain_x0.5~20s@1s".parse().unwrap());
+    let mut p = s.build().unwrap();
+    // Quasi-static: at t = 11 s the gain is 0.75.
+    hold(p.as_mut(), 12.0, 11.0);
+    // A ramp through a first-order-like lag is followed with a delay equal to the sum of the
+    // time constants, T_I + d / c, plus half a step because faults are updated per step.
+    let rate = -0.5 / 20.0 * K * 12.0 / C;
+    let lag = 0.00859 + 20.0 / C + 0.5 * 0.0025;
+    let expected = (0.75 * K * 12.0 - F0) / C - rate * lag;
+    assert!(
+        (p.truth().position - expected).abs() < 1e-6,
+        "{}",
+        p.truth().position
+    );
+}
+
+#[test]
+fn sensor_quantises_and_is_deterministic() {
+    let mut a = plant();
+    let mut b = plant();
+    for _ in 0..400 {
+        a.step(10.0, 0.0025);
+        b.step(10.0, 0.0025);
+        let (ma, mb) = (a.measure(), b.measure());
+        assert_eq!(ma, mb);
+        let q = ma.position / 1e-6;
+        assert!((q - q.round()).abs() < 1e-6);
+        assert!((ma.position - a.truth().position).abs() < 6e-6);
+        assert!((ma.supply_voltage_v - 24.0).abs() < 0.2);
+    }
+}
+
+#[test]
+fn sensor_faults() {
+    let mut p = plant();
+    hold(p.as_mut(), 10.0, 1.0);
+    let before = p.measure().position;
+    p.inject("sensor_offset_0.001".parse().unwrap());
+    let m = p.measure().position;
+    assert!((m - before - 0.001).abs() < 5e-6);
+    p.inject("sensor_stuck".parse().unwrap());
+    let stuck = p.measure().position;
+    hold(p.as_mut(), 20.0, 1.0);
+    assert_eq!(p.measure().position, stuck);
+    let mut q = plant();
+    hold(q.as_mut(), 10.0, 1.0);
+    q.inject("sensor_noise_x100".parse().unwrap());
+    let y = q.truth().position;
+    let n = 2000;
+    let var: f64 = (0..n)
+        .map(|_| (q.measure().position - y).powi(2))
+        .sum::<f64>()
+        / n as f64;
+    // σ = 100 × 0.5 µm = 50 µm.
+    assert!((var.sqrt() - 50e-6).abs() < 5e-6, "σ {}", var.sqrt());
+}

@@ -1,0 +1,301 @@
+//! The vcan suite: `actuatord` and `actuator sim` as separate processes on a real SocketCAN
+//! interface, `candump -L` alongside, and assertions on the capture.
+//!
+//! Needs a `vcan0` that is up (or `ACTUATORD_TEST_IFACE`), `candump` and `cansend`: run through
+//! `scripts/vcan-run`, which provides them on kernels without CAN. Ignored in a plain
+//! `cargo test`; `scripts/test` runs it with `--ignored`.
+
+use actuatord::bus::{parse_candump_line, Frame};
+use actuatord::canopen::{Emcy, FaultStatePdo, LoopStatusPdo, SensorPdo};
+use actuatord::supervise::{FaultKind, FaultState};
+use can_dbc::{Dbc, MessageId};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+const PERIOD: f64 = 0.0025;
+const RUN_S: f64 = 6.0;
+/// Plant time of the supply drop (SYNCs seen by the sim times the period).
+const FAULT_AT_S: f64 = 5.0;
+
+fn iface() -> String {
+    std::env::var("ACTUATORD_TEST_IFACE").unwrap_or_else(|_| "vcan0".into())
+}
+
+fn root(path: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
+}
+
+/// Kills a child when dropped, so a failing assertion leaves no process behind.
+struct Proc(Child);
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn interrupt(p: &mut Proc) {
+    // SAFETY: plain kill(2) on a child we own.
+    unsafe { libc::kill(p.0.id() as libc::pid_t, libc::SIGINT) };
+}
+
+fn cansend(frame: &str) {
+    let status = Command::new("cansend")
+        .args([&iface(), frame])
+        .status()
+        .expect("cansend (can-utils) is installed");
+    assert!(status.success(), "cansend {frame}");
+}
+
+struct Capture {
+    frames: Vec<(f64, Frame)>,
+}
+
+impl Capture {
+    fn with_id(&self, id: u32) -> impl Iterator<Item = &(f64, Frame)> {
+        self.frames.iter().filter(move |(_, f)| f.id() == id)
+    }
+
+    /// Time of the n-th SYNC (0-based), the cycle clock.
+    fn syncs(&self) -> Vec<f64> {
+        self.with_id(0x080).map(|(t, _)| *t).collect()
+    }
+}
+
+#[test]
+#[ignore = "needs vcan0, candump and cansend: run through scripts/vcan-run (scripts/test does)"]
+fn daemon_and_simulated_node_close_the_loop_on_vcan() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let config = dir.path().join("vcan.toml");
+    // The shipped config with its schedule cut after 2 s: a setpoint frame takes over at 3 s.
+    let text = std::fs::read_to_string(root("config/solenoid.toml")).expect("config");
+    let cut = text
+        .find("[[axis.setpoints]]\nat_s = 3.0")
+        .expect("schedule entry at 3 s");
+    std::fs::write(&config, &text[..cut]).expect("write config");
+    let capture_path = dir.path().join("capture.log");
+    let recording = dir.path().join("run.mcap");
+
+    let mut candump = Proc(
+        Command::new("candump")
+            .args(["-L", &iface()])
+            .stdout(std::fs::File::create(&capture_path).expect("capture file"))
+            .spawn()
+            .expect("candump (can-utils) is installed"),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let mut sim = Proc(
+        Command::new(env!("CARGO_BIN_EXE_actuator"))
+            .args(["sim", "--iface", &iface(), "--plant"])
+            .arg(root("config/plants/solenoid.toml"))
+            .args(["--fault", &format!("supply_x0.6@{FAULT_AT_S}s")])
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("actuator sim starts"),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let mut daemon = Proc(
+        Command::new(env!("CARGO_BIN_EXE_actuatord"))
+            .arg("--config")
+            .arg(&config)
+            .args([
+                "--iface",
+                &iface(),
+                "--duration-s",
+                &RUN_S.to_string(),
+                "--record",
+            ])
+            .arg(&recording)
+            .spawn()
+            .expect("actuatord starts"),
+    );
+    // Garbage while the loop runs: a short sensor frame, a short setpoint, an unknown id.
+    std::thread::sleep(Duration::from_millis(1500));
+    for g in ["190#0102", "201#FF", "5FF#0011223344556677"] {
+        cansend(g);
+    }
+    // A setpoint frame at about 3 s: 15 mm = 150000 x 0.1 µm, for axis 16.
+    std::thread::sleep(Duration::from_millis(1500));
+    cansend(&format!("201#{}10", hex_le(150_000)));
+    let status = daemon.0.wait().expect("actuatord ends");
+    assert!(status.success(), "actuatord exit status {status}");
+    std::thread::sleep(Duration::from_millis(200));
+    interrupt(&mut sim);
+    let sim_status = sim.0.wait().expect("sim ends");
+    assert!(sim_status.success(), "sim exit status {sim_status}");
+    interrupt(&mut candump);
+    let _ = candump.0.wait();
+
+    let text = std::fs::read_to_string(&capture_path).expect("capture");
+    let cap = Capture {
+        frames: text
+            .lines()
+            .filter_map(|l| parse_candump_line(l).ok())
+            .map(|r| (r.time_s, r.frame))
+            .collect(),
+    };
+    let syncs = cap.syncs();
+    assert!(
+        syncs.len() > 100,
+        "only {} SYNC frames captured",
+        syncs.len()
+    );
+    let t0 = syncs[0];
+    let span = syncs[syncs.len() - 1] - t0;
+
+    // Rates: one SYNC per period (overrun cycles are skipped, not bunched), one sensor and one
+    // command frame per SYNC, heartbeats of both nodes at their 100 ms period.
+    let expected_syncs = RUN_S / PERIOD;
+    let rate = |n: usize| n as f64 / span;
+    let sync_ratio = syncs.len() as f64 / expected_syncs;
+    let sensors = cap.with_id(0x190).count();
+    let commands = cap.with_id(0x210).count();
+    // Heartbeats over their own span: the nodes start before the first SYNC and end after it.
+    let own_rate = |id: u32| {
+        let t: Vec<f64> = cap.with_id(id).map(|(t, _)| *t).collect();
+        (t.len() as f64 - 1.0) / (t[t.len() - 1] - t[0])
+    };
+    eprintln!(
+        "vcan: {} SYNC over {span:.3} s = {:.1}/s ({:.1} % of the configured 400/s); sensor {:.1}/s, command {:.1}/s, heartbeat controller {:.2}/s, actuator {:.2}/s",
+        syncs.len(),
+        rate(syncs.len()),
+        sync_ratio * 100.0,
+        rate(sensors),
+        rate(commands),
+        own_rate(0x701),
+        own_rate(0x710),
+    );
+    assert!(
+        sync_ratio > 0.9,
+        "SYNC count {} of {expected_syncs}",
+        syncs.len()
+    );
+    assert!(
+        sensors as f64 >= 0.98 * syncs.len() as f64,
+        "{sensors} sensor frames for {} SYNCs",
+        syncs.len()
+    );
+    assert!(
+        commands as f64 >= 0.98 * syncs.len() as f64,
+        "{commands} commands for {} SYNCs",
+        syncs.len()
+    );
+    for id in [0x701, 0x710] {
+        let r = own_rate(id);
+        assert!((r - 10.0).abs() < 1.0, "heartbeat 0x{id:03X} at {r}/s");
+    }
+
+    // Setpoints: mean position over the 200 ms before each change, against the setpoint.
+    let sensor: Vec<(f64, f64)> = cap
+        .with_id(0x190)
+        .filter(|(_, f)| f.len() == 8)
+        .map(|(t, f)| {
+            (
+                t - t0,
+                SensorPdo::decode(f).expect("sensor decodes").position,
+            )
+        })
+        .collect();
+    let setpoint_frame_t = cap
+        .with_id(0x201)
+        .filter(|(_, f)| f.len() == 5)
+        .map(|(t, _)| t - t0)
+        .next()
+        .expect("setpoint frame captured");
+    let mean_between = |a: f64, b: f64| {
+        let v: Vec<f64> = sensor
+            .iter()
+            .filter(|(t, _)| *t >= a && *t < b)
+            .map(|(_, p)| *p)
+            .collect();
+        assert!(!v.is_empty(), "no sensor frames in [{a}, {b})");
+        v.iter().sum::<f64>() / v.len() as f64
+    };
+    for (from, until, target) in [
+        (0.0, 1.0, 0.005),
+        (1.0, 2.0, 0.010),
+        (2.0, setpoint_frame_t, 0.0102),
+        (setpoint_frame_t, FAULT_AT_S, 0.015),
+    ] {
+        let mean = mean_between(until - 0.2, until);
+        let err = mean - target;
+        eprintln!(
+            "vcan: setpoint {:.4} mm from {from:.3} s: position {:.4} mm, error {:+.1} µm",
+            target * 1e3,
+            mean * 1e3,
+            err * 1e6
+        );
+        assert!(err.abs() < 25e-6, "setpoint {target}: position {mean}");
+    }
+
+    // The fault: injected before the sim's SYNC number FAULT_AT_S / PERIOD; the EMCY and the
+    // fault_state frame must follow within the persistence (4 cycles) plus the bus round trip.
+    let fault_sync = (FAULT_AT_S / PERIOD).round() as usize;
+    let emcy = cap
+        .with_id(0x081)
+        .map(|(t, f)| (*t, Emcy::decode(f).expect("emcy decodes")))
+        .find(|(_, e)| e.error_code == 0x3100)
+        .expect("EMCY for the supply drop");
+    let emcy_sync = syncs.iter().filter(|t| **t <= emcy.0).count();
+    let latency = emcy_sync as i64 - fault_sync as i64;
+    eprintln!("vcan: supply drop injected before SYNC #{fault_sync}, EMCY after SYNC #{emcy_sync}: {latency} periods");
+    assert!(emcy.1.flags.contains(FaultKind::SupplyVoltage));
+    assert!(
+        (1..=8).contains(&latency),
+        "fault latency {latency} periods"
+    );
+    let state = cap
+        .with_id(0x181)
+        .map(|(t, f)| (*t, FaultStatePdo::decode(f).expect("fault_state decodes")))
+        .find(|(_, s)| s.state == FaultState::Fault)
+        .expect("fault_state frame with a fault");
+    assert!(state.1.flags.contains(FaultKind::SupplyVoltage));
+    assert!(
+        (state.0 - emcy.0).abs() < PERIOD,
+        "fault_state at {} vs EMCY at {}",
+        state.0,
+        emcy.0
+    );
+
+    // The garbage was counted, not fatal: the loop went on and says so in loop_status.
+    let status = cap
+        .with_id(0x381)
+        .map(|(_, f)| LoopStatusPdo::decode(f).expect("loop_status decodes"))
+        .last()
+        .expect("loop_status frames");
+    assert!(status.frames_malformed >= 2, "{status:?}");
+
+    // Every frame on the bus decodes with the DBC.
+    let dbc_text = std::fs::read_to_string(root("dbc/actuatord.dbc")).expect("dbc");
+    let dbc = Dbc::try_from(dbc_text.as_str()).expect("dbc parses");
+    let ours = [0x5FF_u32];
+    for (t, f) in &cap.frames {
+        if ours.contains(&f.id())
+            || (f.id() == 0x190 && f.len() == 2)
+            || (f.id() == 0x201 && f.len() == 1)
+        {
+            continue; // the garbage this test sent itself
+        }
+        let m = dbc
+            .messages
+            .iter()
+            .find(|m| m.id == MessageId::Standard(f.id() as u16))
+            .unwrap_or_else(|| panic!("frame {f} at {t} has no DBC message"));
+        assert_eq!(m.size as usize, f.len(), "frame {f} vs DBC {}", m.name);
+    }
+    assert!(
+        std::fs::metadata(&recording)
+            .map(|m| m.len() > 0)
+            .unwrap_or(false),
+        "recording written"
+    );
+}
+
+fn hex_le(raw: i32) -> String {
+    raw.to_le_bytes()
+        .iter()
+        .map(|b| format!("{b:02X}"))
+        .collect()
+}
