@@ -17,6 +17,7 @@ pub mod daemon;
 pub mod demo;
 pub mod ident;
 pub mod lab;
+pub mod lockstep;
 pub mod physics;
 pub mod simnode;
 pub mod supervise;

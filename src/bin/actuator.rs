@@ -1,10 +1,12 @@
 //! `actuator`: the user's tool. A simulated actuator node, the demo, the DBC.
 
 use actuatord::bus::SocketCanBus;
-use actuatord::physics::ScheduledFault;
+use actuatord::daemon::Config;
+use actuatord::lockstep::{write_csv, LockStep};
+use actuatord::physics::{CommandUnit, ScheduledFault};
 use actuatord::simnode::{run_sim_node, SimEvent, SimNode};
 use clap::{Parser, Subcommand};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -20,15 +22,25 @@ struct Args {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// A simulated actuator node on a CAN interface: answers every SYNC with its sensor frame.
+    /// With --record, runs offline instead: the controller of --config and the plant in
+    /// lock-step, no CAN, and writes the data set as CSV (time,u,y,supply,i,setpoint).
     Sim {
         #[arg(long, default_value = "vcan0")]
         iface: String,
-        /// Plant file (TOML).
-        #[arg(long, default_value = "config/plants/solenoid.toml")]
-        plant: PathBuf,
+        /// Plant family; shorthand for --plant config/plants/FAMILY.toml (and, offline,
+        /// --config config/FAMILY.toml).
+        #[arg(long)]
+        family: Option<actuatord::physics::Family>,
+        /// Plant file (TOML); default config/plants/solenoid.toml.
+        #[arg(long)]
+        plant: Option<PathBuf>,
+        /// Controller configuration for the offline run (--record).
+        #[arg(long)]
+        config: Option<PathBuf>,
         #[arg(long, default_value_t = 16)]
         node_id: u8,
-        /// Time the plant advances per SYNC; must match the controller's period.
+        /// Time the plant advances per SYNC; must match the controller's period
+        /// (offline: the config's period).
         #[arg(long, default_value_t = 0.0025)]
         period_s: f64,
         #[arg(long, default_value_t = 0.1)]
@@ -40,6 +52,12 @@ enum Command {
         /// Stop by itself after this many seconds.
         #[arg(long)]
         duration_s: Option<f64>,
+        /// Offline: write the closed-loop data set to this CSV file.
+        #[arg(long)]
+        record: Option<PathBuf>,
+        /// Offline: simulated seconds.
+        #[arg(long, default_value_t = 10.0)]
+        seconds: f64,
     },
     /// Daemon and simulated solenoid in one process: no CAN hardware, no root.
     Demo {
@@ -82,13 +100,33 @@ fn run(args: Args) -> anyhow::Result<()> {
     match args.command {
         Command::Sim {
             iface,
+            family,
             plant,
+            config,
             node_id,
             period_s,
             heartbeat_period_s,
             faults,
             duration_s,
+            record,
+            seconds,
         } => {
+            let family_name = family.map_or("solenoid", |f| f.name());
+            let plant =
+                plant.unwrap_or_else(|| PathBuf::from(format!("config/plants/{family_name}.toml")));
+            let spec = actuatord::physics::load_spec(&plant)?;
+            anyhow::ensure!(
+                matches!(spec.command, CommandUnit::Volt | CommandUnit::Duty),
+                "{}: command {:?} cannot be carried by the command frame (voltage or duty); set command = \"voltage\"",
+                plant.display(),
+                spec.command
+            );
+            let model = spec.build_named(&plant.display().to_string())?;
+            if let Some(csv) = record {
+                let config =
+                    config.unwrap_or_else(|| PathBuf::from(format!("config/{family_name}.toml")));
+                return sim_offline(&config, model, faults, &csv, seconds);
+            }
             anyhow::ensure!(
                 (1..=127).contains(&node_id),
                 "--node-id must be 1..=127, got {node_id}"
@@ -98,7 +136,6 @@ fn run(args: Args) -> anyhow::Result<()> {
                 heartbeat_period_s > 0.0,
                 "--heartbeat-period-s must be > 0, got {heartbeat_period_s}"
             );
-            let model = actuatord::physics::load_plant(&plant)?;
             let mut bus = SocketCanBus::open(&iface)?;
             eprintln!(
                 "actuator sim: {} node {node_id} on {iface}, {} ms per SYNC",
@@ -161,6 +198,42 @@ fn run(args: Args) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// Offline closed loop: the controller of `config` against `plant`, written as CSV.
+fn sim_offline(
+    config_path: &Path,
+    plant: Box<dyn actuatord::physics::Plant>,
+    faults: Vec<ScheduledFault>,
+    csv: &Path,
+    seconds: f64,
+) -> anyhow::Result<()> {
+    anyhow::ensure!(seconds > 0.0, "--seconds must be > 0, got {seconds}");
+    let config = Config::load(config_path)?;
+    let command = config
+        .axis
+        .first()
+        .map(|a| a.command)
+        .ok_or_else(|| anyhow::anyhow!("{}: no [[axis]]", config_path.display()))?;
+    let pressure = plant.family() == actuatord::physics::Family::Pneumatic;
+    let mut rig = LockStep::new(&config, plant, faults)?;
+    let mut samples = Vec::with_capacity((seconds / config.cycle.period_s) as usize + 1);
+    rig.run(seconds, &mut |s| samples.push(*s));
+    let file = std::fs::File::create(csv)
+        .map_err(|e| anyhow::anyhow!("{}: cannot create: {e}", csv.display()))?;
+    let mut out = std::io::BufWriter::new(file);
+    write_csv(&mut out, &samples, command, pressure)
+        .and_then(|()| std::io::Write::flush(&mut out))
+        .map_err(|e| anyhow::anyhow!("{}: {e}", csv.display()))?;
+    let c = rig.controller().counters();
+    eprintln!(
+        "actuator sim: {} samples ({seconds} s at {} ms) written to {}; faults raised: {}",
+        samples.len(),
+        config.cycle.period_s * 1e3,
+        csv.display(),
+        c.faults_raised
+    );
+    Ok(())
 }
 
 /// Raise `stop` on SIGTERM or SIGINT, from a helper thread with a small runtime of its own.

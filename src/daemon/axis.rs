@@ -13,6 +13,8 @@ pub struct AxisStep {
     pub command: f64,
     pub friction_compensation: f64,
     pub setpoint: f64,
+    /// What the loop tracks this cycle: the setpoint, rate-limited when so configured.
+    pub reference: f64,
     pub following_error: f64,
     pub sensor: SensorPdo,
     pub supply_pressure_pa: f64,
@@ -32,6 +34,9 @@ pub struct Axis {
     supervisor: LimitSupervisor,
     travel: (f64, f64),
     setpoint: f64,
+    reference: f64,
+    /// Largest reference change per cycle; infinite without a rate limit.
+    reference_step_max: f64,
     schedule: Vec<SetpointStep>,
     next_step: usize,
     sensor: SensorPdo,
@@ -110,6 +115,10 @@ impl Axis {
                 l.position_max_m.unwrap_or(f64::INFINITY),
             ),
             setpoint: cfg.initial_setpoint_m,
+            reference: cfg.initial_setpoint_m,
+            reference_step_max: cfg
+                .setpoint_rate_max_m_per_s
+                .map_or(f64::INFINITY, |r| r * period_s),
             schedule: cfg.setpoints.clone(),
             next_step: 0,
             sensor: SensorPdo::default(),
@@ -167,6 +176,10 @@ impl Axis {
         self.controller.preset(self.safe_command);
         self.node_was_operational = self.node_state == Some(NmtState::Operational);
         self.last_command = self.safe_command;
+        // Resume from where the axis rests; with a rate limit it then ramps back to the setpoint.
+        if self.reference_step_max.is_finite() {
+            self.reference = self.sensor.position;
+        }
     }
 
     /// Run one cycle at `now_s` with whatever arrived since the last one.
@@ -182,11 +195,15 @@ impl Axis {
         let fresh = self.sensor_fresh;
         self.sensor_fresh = false;
         self.missing_cycles = if fresh { 0 } else { self.missing_cycles + 1 };
-        let e = self.setpoint - self.sensor.position;
+        // r(k) = r(k-1) + clamp(w - r(k-1), ±rate·T0): a ramp instead of a step, so a large step
+        // does not saturate the output and kick the derivative part the wrong way.
+        self.reference += (self.setpoint - self.reference)
+            .clamp(-self.reference_step_max, self.reference_step_max);
+        let e = self.reference - self.sensor.position;
         let node_operational =
             !self.node_was_operational || self.node_state == Some(NmtState::Operational);
         let supervision = self.supervisor.step(&SupervisionInput {
-            setpoint: self.setpoint,
+            setpoint: self.reference,
             position: self.sensor.position,
             current_a: self.sensor.current_a,
             supply_voltage_v: self.sensor.supply_voltage_v,
@@ -212,6 +229,7 @@ impl Axis {
             command: self.last_command,
             friction_compensation: self.last_compensation,
             setpoint: self.setpoint,
+            reference: self.reference,
             following_error: e,
             sensor: self.sensor,
             supply_pressure_pa: self.supply_pressure_pa,

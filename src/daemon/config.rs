@@ -122,6 +122,8 @@ pub struct AxisConfig {
     pub start_node: bool,
     /// Setpoint before any arrives, m.
     pub initial_setpoint_m: f64,
+    /// Rate limit of the reference the loop tracks (m/s, rad/s on a rotary axis); absent: steps.
+    pub setpoint_rate_max_m_per_s: Option<f64>,
     /// Command sent while a fault is latched (V or duty, as `command`); the spring-return rest for a solenoid.
     #[serde(default)]
     pub safe_command: f64,
@@ -360,6 +362,9 @@ impl Config {
                         format!("must be >= 0, got {}", f.deadband_m),
                     ));
                 }
+            }
+            if let Some(v) = axis.setpoint_rate_max_m_per_s {
+                positive(&at("setpoint_rate_max_m_per_s"), v)?;
             }
             let l = &axis.limits;
             if let Some(v) = l.following_error_m {

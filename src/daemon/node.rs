@@ -429,6 +429,7 @@ fn cycle_record(
         cycle,
         axis_node_id: node,
         setpoint_position: step.setpoint,
+        reference_position: step.reference,
         position: step.sensor.position,
         current: step.sensor.current_a,
         supply_voltage: step.sensor.supply_voltage_v,

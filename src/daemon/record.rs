@@ -14,6 +14,8 @@ pub struct CycleRecord {
     pub cycle: u64,
     pub axis_node_id: u8,
     pub setpoint_position: f64,
+    /// The rate-limited setpoint the loop tracks this cycle, m.
+    pub reference_position: f64,
     pub position: f64,
     pub current: f64,
     pub supply_voltage: f64,

@@ -26,6 +26,7 @@ const CYCLE_SCHEMA: &str = r#"{
     "cycle": {"type": "integer"},
     "axis_node_id": {"type": "integer"},
     "setpoint_position": {"type": "number", "description": "m"},
+    "reference_position": {"type": "number", "description": "rate-limited setpoint the loop tracks, m"},
     "position": {"type": "number", "description": "m"},
     "current": {"type": "number", "description": "A"},
     "supply_voltage": {"type": "number", "description": "V"},

@@ -60,8 +60,10 @@ pub struct StepSummary {
 #[derive(Debug, Clone, PartialEq)]
 pub struct DemoSummary {
     pub steps: Vec<StepSummary>,
-    pub injected: Vec<(f64, String)>,
-    pub faults_raised: Vec<(f64, FaultKind)>,
+    /// Faults injected: plant time, SYNCs the node had seen, name.
+    pub injected: Vec<(f64, u64, String)>,
+    /// Faults raised: cycle time, cycle number (= SYNCs sent), kind.
+    pub faults_raised: Vec<(f64, u64, FaultKind)>,
     pub cycle: CycleReport,
     pub sensor_missed: u64,
     pub records_dropped: u64,
@@ -131,10 +133,10 @@ pub fn run(
                 if let SimEvent::FaultInjected {
                     fault,
                     plant_time_s,
-                    ..
+                    sync_count,
                 } = e
                 {
-                    injected.push((plant_time_s, fault.fault.to_string()));
+                    injected.push((plant_time_s, sync_count, fault.fault.to_string()));
                 }
             },
         );
@@ -169,13 +171,13 @@ pub fn run(
     })
 }
 
-fn faults_raised(records: &[CycleRecord]) -> Vec<(f64, FaultKind)> {
+fn faults_raised(records: &[CycleRecord]) -> Vec<(f64, u64, FaultKind)> {
     let mut out = vec![];
     let mut before = FaultFlags::default();
     for r in records {
         let now = FaultFlags(r.fault_flags);
         for k in now.added_since(before).iter() {
-            out.push((r.t_s, k));
+            out.push((r.t_s, r.cycle, k));
         }
         before = now;
     }
@@ -247,8 +249,8 @@ impl std::fmt::Display for DemoSummary {
             )?;
         }
         writeln!(f, "faults injected into the simulated actuator:")?;
-        for (t, name) in &self.injected {
-            writeln!(f, "  t={t:.3} s  {name}")?;
+        for (t, sync, name) in &self.injected {
+            writeln!(f, "  t={t:.3} s (SYNC #{sync})  {name}")?;
         }
         if self.faults_raised.is_empty() {
             writeln!(f, "faults raised by the controller: none")?;
@@ -257,8 +259,21 @@ impl std::fmt::Display for DemoSummary {
                 f,
                 "faults raised by the controller (EMCY sent, axis to safe state):"
             )?;
-            for (t, k) in &self.faults_raised {
-                writeln!(f, "  t={t:.4} s  {k}")?;
+            for (t, cycle, k) in &self.faults_raised {
+                // Latency counted in SYNCs from the injection that could have caused it.
+                let after = self
+                    .injected
+                    .iter()
+                    .filter(|(_, sync, _)| sync <= cycle)
+                    .map(|(_, sync, _)| cycle - sync)
+                    .min();
+                match after {
+                    Some(n) => writeln!(
+                        f,
+                        "  t={t:.4} s  {k}  ({n} periods after the last fault injected)"
+                    )?,
+                    None => writeln!(f, "  t={t:.4} s  {k}")?,
+                }
             }
         }
         writeln!(
