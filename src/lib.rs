@@ -10,6 +10,7 @@
 //! - [`daemon`]: the real-time cycle, configuration, recording.
 //! - [`lab`]: comparing models with measurements.
 
+pub mod bench;
 pub mod bus;
 pub mod canopen;
 pub mod control;

@@ -1,5 +1,6 @@
 //! `actuator`: the user's tool. A simulated actuator node, the demo, the DBC.
 
+use actuatord::bench::rt::{Load, RtBenchOptions};
 use actuatord::bus::SocketCanBus;
 use actuatord::daemon::Config;
 use actuatord::lockstep::{write_csv, LockStep};
@@ -69,6 +70,11 @@ enum Command {
         #[arg(long, default_value = "demo.mcap")]
         record: PathBuf,
     },
+    /// Benchmarks: measurements printed beside their reference figures.
+    Bench {
+        #[command(subcommand)]
+        what: BenchCommand,
+    },
     /// Print the DBC of the protocol for the given node ids (dbc/actuatord.dbc is 1 and 16).
     Dbc {
         #[arg(long, default_value_t = 1)]
@@ -76,6 +82,52 @@ enum Command {
         #[arg(long, default_value_t = 16)]
         actuator_node: u8,
     },
+}
+
+#[derive(Subcommand, Debug)]
+enum BenchCommand {
+    /// How the cycle keeps time: lateness histogram, deadline misses, latencies, compute per
+    /// stage, against a naive tokio-interval loop doing the same work in the same run.
+    Rt {
+        #[arg(long, default_value = "config/solenoid.toml")]
+        config: PathBuf,
+        #[arg(long, default_value = "config/plants/solenoid.toml")]
+        plant: PathBuf,
+        /// Cycle period, e.g. 1ms, 2.5ms, 500us (default: the configuration's).
+        #[arg(long, value_parser = parse_duration_s)]
+        period: Option<f64>,
+        /// Seconds per loop.
+        #[arg(long, default_value_t = 10.0)]
+        seconds: f64,
+        #[arg(long, value_enum, default_value_t = Load::None)]
+        load: Load,
+        /// Measure on this SocketCAN interface instead of the in-process bus.
+        #[arg(long)]
+        iface: Option<String>,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// "1ms", "2.5ms", "500us", "0.01s" or plain seconds.
+fn parse_duration_s(text: &str) -> Result<f64, String> {
+    let t = text.trim();
+    let (number, scale) = if let Some(n) = t.strip_suffix("ms") {
+        (n, 1e-3)
+    } else if let Some(n) = t.strip_suffix("us") {
+        (n, 1e-6)
+    } else if let Some(n) = t.strip_suffix('s') {
+        (n, 1.0)
+    } else {
+        (t, 1.0)
+    };
+    match number.trim().parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v * scale),
+        _ => Err(format!(
+            "not a positive duration: {text:?} (e.g. 1ms, 500us, 0.002s)"
+        )),
+    }
 }
 
 fn main() -> ExitCode {
@@ -185,6 +237,33 @@ fn run(args: Args) -> anyhow::Result<()> {
             );
             let summary = actuatord::demo::run(&config, &plant, &script, &record)?;
             println!("{summary}");
+            Ok(())
+        }
+        Command::Bench {
+            what:
+                BenchCommand::Rt {
+                    config,
+                    plant,
+                    period,
+                    seconds,
+                    load,
+                    iface,
+                    json,
+                },
+        } => {
+            let report = actuatord::bench::rt::run(&RtBenchOptions {
+                config,
+                plant,
+                period_s: period,
+                seconds,
+                load,
+                iface,
+            })?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&report)?);
+            } else {
+                println!("{report}");
+            }
             Ok(())
         }
         Command::Dbc {

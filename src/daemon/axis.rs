@@ -42,6 +42,10 @@ pub struct Axis {
     sensor: SensorPdo,
     supply_pressure_pa: f64,
     sensor_fresh: bool,
+    /// This cycle's readings arrived in time (set by `schedule`).
+    fresh: bool,
+    /// reference - position this cycle, m.
+    error: f64,
     missing_cycles: u32,
     last_heartbeat_s: f64,
     node_state: Option<NmtState>,
@@ -124,6 +128,8 @@ impl Axis {
             sensor: SensorPdo::default(),
             supply_pressure_pa: 0.0,
             sensor_fresh: false,
+            fresh: false,
+            error: 0.0,
             missing_cycles: 0,
             last_heartbeat_s: 0.0,
             node_state: None,
@@ -184,6 +190,13 @@ impl Axis {
 
     /// Run one cycle at `now_s` with whatever arrived since the last one.
     pub fn step(&mut self, now_s: f64) -> AxisStep {
+        self.schedule(now_s);
+        let supervision = self.supervise(now_s);
+        self.control(supervision)
+    }
+
+    /// Stage "scheduling": setpoint schedule, reference ramp, freshness of the readings.
+    pub fn schedule(&mut self, now_s: f64) {
         while let Some(s) = self.schedule.get(self.next_step) {
             if s.at_s > now_s {
                 break;
@@ -192,31 +205,44 @@ impl Axis {
             self.next_step += 1;
             self.set_setpoint(position);
         }
-        let fresh = self.sensor_fresh;
+        self.fresh = self.sensor_fresh;
         self.sensor_fresh = false;
-        self.missing_cycles = if fresh { 0 } else { self.missing_cycles + 1 };
+        self.missing_cycles = if self.fresh {
+            0
+        } else {
+            self.missing_cycles + 1
+        };
         // r(k) = r(k-1) + clamp(w - r(k-1), ±rate·T0): a ramp instead of a step, so a large step
         // does not saturate the output and kick the derivative part the wrong way.
         self.reference += (self.setpoint - self.reference)
             .clamp(-self.reference_step_max, self.reference_step_max);
-        let e = self.reference - self.sensor.position;
+        self.error = self.reference - self.sensor.position;
+    }
+
+    /// Stage "supervision": limit checks on this cycle's readings.
+    pub fn supervise(&mut self, now_s: f64) -> SupervisionOutput {
         let node_operational =
             !self.node_was_operational || self.node_state == Some(NmtState::Operational);
-        let supervision = self.supervisor.step(&SupervisionInput {
+        self.supervisor.step(&SupervisionInput {
             setpoint: self.reference,
             position: self.sensor.position,
             current_a: self.sensor.current_a,
             supply_voltage_v: self.sensor.supply_voltage_v,
             supply_pressure_pa: self.supply_pressure_pa,
-            sensor_fresh: fresh,
+            sensor_fresh: self.fresh,
             sensor_missing_cycles: self.missing_cycles,
             heartbeat_age_s: now_s - self.last_heartbeat_s,
             node_operational,
-        });
+        })
+    }
+
+    /// Stage "control": the command, or the safe command while a fault is latched.
+    pub fn control(&mut self, supervision: SupervisionOutput) -> AxisStep {
+        let e = self.error;
         if !supervision.latched.is_empty() {
             self.last_command = self.safe_command;
             self.last_compensation = 0.0;
-        } else if fresh {
+        } else if self.fresh {
             let comp = self.friction.map_or(0.0, |f| f.compensation(e));
             let (lo, hi) = self.controller.limits();
             let u = (self.controller.propose(e) + comp).clamp(lo, hi);
@@ -233,7 +259,7 @@ impl Axis {
             following_error: e,
             sensor: self.sensor,
             supply_pressure_pa: self.supply_pressure_pa,
-            sensor_fresh: fresh,
+            sensor_fresh: self.fresh,
             supervision,
         }
     }

@@ -5,9 +5,13 @@ use super::node::{ControllerNode, CycleTiming};
 use super::record::{Event, Record};
 use super::recorder::RecordSink;
 use super::rt;
-use crate::bus::{Bus, BusError, BusEvent};
+use crate::bus::{Bus, BusError, BusEvent, Frame};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
+
+/// Frames handled before SYNC per cycle: about a period's worth of a saturated 1 Mbit/s bus at
+/// the shortest frames (20 per ms), with room to spare at 400 Hz.
+const MAX_FRAMES_BEFORE_SYNC: usize = 64;
 
 /// Cycle timing and real-time requests.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -30,6 +34,143 @@ pub struct CycleReport {
     pub memory_locked: bool,
 }
 
+/// The work of one cycle around the sans-I/O node, whatever wakes it up: the real-time loop
+/// below, or the naive baseline the real-time bench compares it with.
+pub struct CycleRunner<'a> {
+    pub bus: &'a mut dyn Bus,
+    pub node: &'a mut ControllerNode,
+    pub sink: &'a RecordSink,
+    start_ns: u64,
+    start_instant: Instant,
+    period_ns: u64,
+    sensor_wait: Duration,
+    last_latency_s: f64,
+}
+
+impl<'a> CycleRunner<'a> {
+    /// Read both clocks once; every release time derives from them.
+    pub fn new(
+        bus: &'a mut dyn Bus,
+        node: &'a mut ControllerNode,
+        sink: &'a RecordSink,
+        period_s: f64,
+        sensor_deadline_s: f64,
+    ) -> Self {
+        node.set_stage_clock(rt::monotonic_ns);
+        Self {
+            bus,
+            node,
+            sink,
+            start_ns: rt::monotonic_ns(),
+            start_instant: Instant::now(),
+            period_ns: (period_s * 1e9).round() as u64,
+            sensor_wait: Duration::from_secs_f64(sensor_deadline_s),
+            last_latency_s: 0.0,
+        }
+    }
+
+    /// CLOCK_MONOTONIC time of cycle `k`'s release.
+    pub fn release_ns(&self, k: u64) -> u64 {
+        self.start_ns + k * self.period_ns
+    }
+
+    pub fn period_ns(&self) -> u64 {
+        self.period_ns
+    }
+
+    /// Announce the node and start the actuator nodes.
+    pub fn boot(&mut self) -> Result<(), BusError> {
+        let mut result = Ok(());
+        let bus = &mut *self.bus;
+        let sink = self.sink;
+        self.node.boot(
+            &mut |f| {
+                if let Err(e) = bus.send(f) {
+                    result = Err(e);
+                }
+            },
+            &mut |r| sink.push(r),
+        );
+        result
+    }
+
+    /// Run cycle `k`, woken at `woke_ns`; returns when its last frame went out (CLOCK_MONOTONIC).
+    pub fn run_once(&mut self, k: u64, woke_ns: u64) -> Result<u64, BusError> {
+        let release_ns = self.release_ns(k);
+        let release = self.start_instant + Duration::from_nanos(k * self.period_ns);
+        let t_s = (k * self.period_ns) as f64 * 1e-9;
+        let sink = self.sink;
+        let mut record = |r: Record| sink.push(r);
+
+        // Whatever is queued now arrived before this cycle's SYNC: handle it (setpoints, NMT,
+        // heartbeats, sensor frames that missed the last deadline), then mark every axis as
+        // waiting, so a late frame can never pass for this cycle's and add a period of lag.
+        // Bounded, so a flood of frames cannot hold the cycle here; the rest waits in the
+        // socket queue (a full queue drops frames, counted by the kernel or the bus).
+        for _ in 0..MAX_FRAMES_BEFORE_SYNC {
+            match self.bus.recv_until(Instant::now())? {
+                Some(event) => on_event(self.node, event, t_s, &mut record),
+                None => break,
+            }
+        }
+        self.node.begin_cycle();
+        self.bus.send(&self.node.sync_frame())?;
+        let sensor_deadline = release + self.sensor_wait;
+        while !self.node.all_sensors_in() {
+            match self.bus.recv_until(sensor_deadline)? {
+                Some(event) => on_event(self.node, event, t_s, &mut record),
+                None => break,
+            }
+        }
+        let sensors_in_ns = self.node.all_sensors_in().then(rt::monotonic_ns);
+
+        let mut send_error = None;
+        {
+            let bus = &mut *self.bus;
+            let mut send = |f: &Frame| {
+                if let Err(e) = bus.send(f) {
+                    send_error.get_or_insert(e);
+                }
+            };
+            // Each axis' record is pushed right after its command went out: stamp it then.
+            let mut record_stamped = |mut r: Record| {
+                if let Record::Cycle(c) = &mut r {
+                    let now = rt::monotonic_ns();
+                    c.cycle_latency = now.saturating_sub(release_ns) as f64 * 1e-9;
+                    c.sensor_to_command = sensors_in_ns
+                        .filter(|_| c.sensor_fresh)
+                        .map_or(0.0, |s| now.saturating_sub(s) as f64 * 1e-9);
+                }
+                sink.push(r);
+            };
+            let timing = CycleTiming {
+                wake_latency_s: woke_ns.saturating_sub(release_ns) as f64 * 1e-9,
+                previous_cycle_latency_s: self.last_latency_s,
+            };
+            self.node
+                .finish_cycle(t_s, timing, &mut send, &mut record_stamped);
+        }
+        let sent_ns = rt::monotonic_ns();
+        self.last_latency_s = sent_ns.saturating_sub(release_ns) as f64 * 1e-9;
+        match send_error {
+            Some(e) => Err(e),
+            None => Ok(sent_ns),
+        }
+    }
+
+    /// Leave operation: the safe command to every axis.
+    pub fn shutdown(&mut self) -> Result<(), BusError> {
+        let mut send_error = None;
+        let bus = &mut *self.bus;
+        self.node.shutdown(&mut |f| {
+            if let Err(e) = bus.send(f) {
+                send_error.get_or_insert(e);
+            }
+        });
+        send_error.map_or(Ok(()), Err)
+    }
+}
+
 /// Run the cycle until `stop` is set, `duration_s` has passed, or the bus fails.
 pub fn run_cycle(
     bus: &mut dyn Bus,
@@ -47,107 +188,43 @@ pub fn run_cycle(
         lock_requested: settings.lock_memory,
         memory_locked,
     }));
-
-    let period_ns = (settings.period_s * 1e9).round() as u64;
-    let sensor_wait = Duration::from_secs_f64(settings.sensor_deadline_s);
     let limit = settings
         .duration_s
         .map(|d| (d / settings.period_s).round() as u64);
-    let mut bus_result = Ok(());
 
-    // Both clocks are read together once; deadlines for sleeping and for receiving derive from them.
-    let start_ns = rt::monotonic_ns();
-    let start_instant = Instant::now();
-    let mut record = |r: Record| sink.push(r);
-    {
-        let mut send = |f: &crate::bus::Frame| {
-            if let Err(e) = bus.send(f) {
-                bus_result = Err(e);
-            }
-        };
-        node.boot(&mut send, &mut record);
-    }
-    bus_result?;
-
+    let mut runner = CycleRunner::new(
+        bus,
+        node,
+        sink,
+        settings.period_s,
+        settings.sensor_deadline_s,
+    );
+    runner.boot()?;
+    let period_ns = runner.period_ns();
     let mut k: u64 = 0;
-    let mut last_latency_s = 0.0;
     while !stop.load(Ordering::Relaxed) && limit.is_none_or(|n| k < n) {
-        let release_ns = start_ns + k * period_ns;
-        rt::sleep_until_ns(release_ns);
+        rt::sleep_until_ns(runner.release_ns(k));
         let woke_ns = rt::monotonic_ns();
-        let release = start_instant + Duration::from_nanos(k * period_ns);
-        let t_s = (k * period_ns) as f64 * 1e-9;
-
-        // Whatever is queued now arrived before this cycle's SYNC: handle it (setpoints, NMT,
-        // heartbeats, sensor frames that missed the last deadline), then mark every axis as
-        // waiting, so a late frame can never pass for this cycle's and add a period of lag.
-        while let Some(event) = bus.recv_until(Instant::now())? {
-            on_event(node, event, t_s, &mut record);
-        }
-        node.begin_cycle();
-        bus.send(&node.sync_frame())?;
-        let sensor_deadline = release + sensor_wait;
-        while !node.all_sensors_in() {
-            match bus.recv_until(sensor_deadline)? {
-                Some(event) => on_event(node, event, t_s, &mut record),
-                None => break,
-            }
-        }
-
-        let mut send_error = None;
-        {
-            let mut send = |f: &crate::bus::Frame| {
-                if let Err(e) = bus.send(f) {
-                    send_error.get_or_insert(e);
-                }
-            };
-            // Each axis' record is pushed right after its command went out: stamp it then.
-            let mut record_stamped = |mut r: Record| {
-                if let Record::Cycle(c) = &mut r {
-                    c.cycle_latency = rt::monotonic_ns().saturating_sub(release_ns) as f64 * 1e-9;
-                }
-                sink.push(r);
-            };
-            let timing = CycleTiming {
-                wake_latency_s: woke_ns.saturating_sub(release_ns) as f64 * 1e-9,
-                previous_cycle_latency_s: last_latency_s,
-            };
-            node.finish_cycle(t_s, timing, &mut send, &mut record_stamped);
-        }
-        let sent_ns = rt::monotonic_ns();
-        last_latency_s = sent_ns.saturating_sub(release_ns) as f64 * 1e-9;
-        if let Some(e) = send_error {
-            return Err(e);
-        }
-
+        let sent_ns = runner.run_once(k, woke_ns)?;
         // Overrun: the next release time has already passed. Skip the lost periods instead of
         // running a burst of late cycles.
         k += 1;
-        let next_ns = start_ns + k * period_ns;
+        let next_ns = runner.release_ns(k);
         if sent_ns > next_ns {
             let late_ns = sent_ns - next_ns;
-            let skipped = late_ns / period_ns + 1;
-            node.counters_mut().overruns += 1;
-            record(Record::Event(Event::Overrun {
-                t_s,
+            runner.node.counters_mut().overruns += 1;
+            sink.push(Record::Event(Event::Overrun {
+                t_s: ((k - 1) * period_ns) as f64 * 1e-9,
                 cycle: k - 1,
                 late_s: late_ns as f64 * 1e-9,
             }));
-            k += skipped;
+            k += late_ns / period_ns + 1;
         }
     }
-    let mut send_error = None;
-    node.shutdown(&mut |f| {
-        if let Err(e) = bus.send(f) {
-            send_error.get_or_insert(e);
-        }
-    });
-    if let Some(e) = send_error {
-        return Err(e);
-    }
+    runner.shutdown()?;
     Ok(CycleReport {
-        cycles: node.counters().cycles,
-        overruns: node.counters().overruns,
+        cycles: runner.node.counters().cycles,
+        overruns: runner.node.counters().overruns,
         realtime,
         memory_locked,
     })

@@ -34,6 +34,68 @@ pub struct CycleTiming {
     pub previous_cycle_latency_s: f64,
 }
 
+/// The stages of an axis' cycle, timed separately when the runtime gives the node a clock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    Scheduling,
+    Control,
+    Estimation,
+    Observer,
+    Supervision,
+    EncodeSend,
+}
+
+/// Number of [`Stage`]s.
+pub const STAGES: usize = 6;
+
+impl Stage {
+    pub const ALL: [Stage; STAGES] = [
+        Stage::Scheduling,
+        Stage::Control,
+        Stage::Estimation,
+        Stage::Observer,
+        Stage::Supervision,
+        Stage::EncodeSend,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Scheduling => "scheduling",
+            Stage::Control => "control",
+            Stage::Estimation => "estimation",
+            Stage::Observer => "observer",
+            Stage::Supervision => "supervision",
+            Stage::EncodeSend => "encode_send",
+        }
+    }
+}
+
+/// Splits a cycle into stage durations with the runtime's clock; does nothing without one.
+struct StageTimer {
+    clock: Option<fn() -> u64>,
+    since: u64,
+    stage_ns: [u32; STAGES],
+}
+
+impl StageTimer {
+    fn start(clock: Option<fn() -> u64>) -> Self {
+        Self {
+            clock,
+            since: clock.map_or(0, |c| c()),
+            stage_ns: [0; STAGES],
+        }
+    }
+
+    fn mark(&mut self, stage: Stage) {
+        if let Some(c) = self.clock {
+            let now = c();
+            let spent = now.saturating_sub(self.since).min(u64::from(u32::MAX)) as u32;
+            self.stage_ns[stage as usize] = self.stage_ns[stage as usize].saturating_add(spent);
+            self.since = now;
+        }
+    }
+}
+
 /// Unknown ids are logged at most this often, so a busy foreign bus cannot flood the log.
 const UNKNOWN_LOG_INTERVAL_S: f64 = 1.0;
 
@@ -51,6 +113,7 @@ pub struct ControllerNode {
     last_unknown_log_s: f64,
     pending_reset: bool,
     period_s: f64,
+    stage_clock: Option<fn() -> u64>,
 }
 
 impl ControllerNode {
@@ -75,7 +138,13 @@ impl ControllerNode {
             last_unknown_log_s: f64::NEG_INFINITY,
             pending_reset: false,
             period_s,
+            stage_clock: None,
         })
+    }
+
+    /// Give the node a nanosecond clock, so it times each stage of the cycle.
+    pub fn set_stage_clock(&mut self, clock: fn() -> u64) {
+        self.stage_clock = Some(clock);
     }
 
     pub fn node_id(&self) -> u8 {
@@ -304,7 +373,14 @@ impl ControllerNode {
         let sync_counter = self.sync.value();
         let status_due = cycle % u64::from(self.status_every) == 0;
         for index in 0..self.axes.len() {
-            let step = self.axes[index].step(now_s);
+            let mut timer = StageTimer::start(self.stage_clock);
+            let axis = &mut self.axes[index];
+            axis.schedule(now_s);
+            timer.mark(Stage::Scheduling);
+            let supervision = axis.supervise(now_s);
+            timer.mark(Stage::Supervision);
+            let step = axis.control(supervision);
+            timer.mark(Stage::Control);
             let axis = &self.axes[index];
             let node = axis.actuator_node_id;
             if !step.sensor_fresh {
@@ -354,9 +430,10 @@ impl ControllerNode {
                     .encode(self.node_id),
                 );
             }
-            record(Record::Cycle(cycle_record(
-                now_s, cycle, node, axis, &step, timing,
-            )));
+            timer.mark(Stage::EncodeSend);
+            let mut rec = cycle_record(now_s, cycle, node, axis, &step, timing);
+            rec.stage_ns = timer.stage_ns;
+            record(Record::Cycle(rec));
         }
         if operational && status_due {
             send(
@@ -444,5 +521,7 @@ fn cycle_record(
         wake_latency: timing.wake_latency_s,
         // Stamped by the cycle thread once the command is out.
         cycle_latency: 0.0,
+        sensor_to_command: 0.0,
+        stage_ns: [0; STAGES],
     }
 }

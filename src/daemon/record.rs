@@ -1,6 +1,7 @@
 //! What the cycle reports: one record per axis and cycle, and events. Plain `Copy` data, so the
 //! real-time thread hands them over without allocating; the writer thread formats them.
 
+use super::node::STAGES;
 use crate::bus::{BusErrorFrame, Frame};
 use crate::canopen::{DecodeError, NmtState};
 use crate::supervise::FaultKind;
@@ -32,6 +33,11 @@ pub struct CycleRecord {
     pub wake_latency: f64,
     /// Delay from the release time to the command being sent, s.
     pub cycle_latency: f64,
+    /// Delay from the last sensor frame of the cycle arriving to the command being sent, s
+    /// (0 when the sensor frame did not come).
+    pub sensor_to_command: f64,
+    /// Compute time per stage, ns, in the order of `daemon::node::Stage::ALL`.
+    pub stage_ns: [u32; STAGES],
 }
 
 /// Something worth a log line and a place in the recording.

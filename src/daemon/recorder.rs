@@ -39,7 +39,9 @@ const CYCLE_SCHEMA: &str = r#"{
     "fault_flags": {"type": "integer", "description": "bit per fault, order as in the DBC"},
     "sensor_fresh": {"type": "boolean"},
     "wake_latency": {"type": "number", "description": "s"},
-    "cycle_latency": {"type": "number", "description": "s"}
+    "cycle_latency": {"type": "number", "description": "release to command sent, s"},
+    "sensor_to_command": {"type": "number", "description": "sensor frame received to command sent, s"},
+    "stage_ns": {"type": "array", "items": {"type": "integer"}, "description": "compute time per stage, ns: scheduling, control, estimation, observer, supervision, encode_send"}
   }
 }"#;
 
@@ -61,6 +63,19 @@ pub struct RecordSink {
 }
 
 impl RecordSink {
+    /// A sink whose records go to the returned receiver instead of a writer thread
+    /// (benches, tests, anything that consumes records itself).
+    pub fn channel(queue_depth: usize) -> (RecordSink, Receiver<Record>) {
+        let (tx, rx) = std::sync::mpsc::sync_channel(queue_depth);
+        (
+            RecordSink {
+                tx,
+                dropped: Arc::new(AtomicU64::new(0)),
+            },
+            rx,
+        )
+    }
+
     pub fn push(&self, record: Record) {
         match self.tx.try_send(record) {
             Ok(()) => {}

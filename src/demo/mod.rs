@@ -76,11 +76,11 @@ pub enum DemoError {
     Config(#[from] crate::daemon::config::ConfigError),
     #[error(transparent)]
     Plant(#[from] PhysicsError),
-    #[error("controller: {0}")]
+    #[error(transparent)]
     Controller(#[from] crate::control::ControllerError),
     #[error(transparent)]
     Recorder(#[from] RecorderError),
-    #[error("bus: {0}")]
+    #[error(transparent)]
     Bus(#[from] crate::bus::BusError),
     #[error("a demo thread panicked")]
     Panicked,

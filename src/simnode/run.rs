@@ -5,7 +5,7 @@ use crate::bus::{Bus, BusError, BusEvent};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-/// Run `node` on `bus` until `stop` is set or `duration` has passed.
+/// Run `node` on `bus` until `stop` is set, `duration` has passed, or every other node is gone.
 pub fn run_sim_node(
     bus: &mut dyn Bus,
     node: &mut SimNode,
@@ -40,7 +40,13 @@ pub fn run_sim_node(
         }
         let wake = next_heartbeat.min(now + poll);
         let wake = end.map_or(wake, |e| wake.min(e));
-        match bus.recv_until(wake)? {
+        let event = match bus.recv_until(wake) {
+            Ok(e) => e,
+            // Nobody left to talk to (the in-process bus of a finished run): a normal end.
+            Err(BusError::Closed) => break,
+            Err(e) => return Err(e),
+        };
+        match event {
             Some(BusEvent::Frame(frame)) => {
                 let mut out = [None; 4];
                 let mut n = 0;
@@ -55,7 +61,10 @@ pub fn run_sim_node(
                     on_event,
                 );
                 for f in out.iter().flatten() {
-                    bus.send(f)?;
+                    match bus.send(f) {
+                        Err(BusError::Closed) => return Ok(()),
+                        other => other?,
+                    }
                 }
             }
             Some(BusEvent::ErrorFrame(_)) | None => {}
