@@ -1,4 +1,11 @@
 //! Benchmarks a user runs with `actuator bench ...`: measurements printed beside their
 //! reference figures, never asserted in tests.
+//!
+//! - [`paper`]: closed-loop simulations of the physics plants with the intelligent-actuator
+//!   algorithms, in lock-step at the papers' sampling times (no bus), beside the papers' figures.
+//! - [`rt`]: how well the real-time cycle keeps time, against a naive baseline.
 
+pub mod paper;
 pub mod rt;
+
+pub use paper::{run_paper_bench, PaperRow, PaperTable};

@@ -86,6 +86,12 @@ enum Command {
 
 #[derive(Subcommand, Debug)]
 enum BenchCommand {
+    /// The papers' experiments on the simulated plants, beside the papers' figures.
+    Paper {
+        /// Print JSON (a list of rows) instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
     /// How the cycle keeps time: lateness histogram, deadline misses, latencies, compute per
     /// stage, against a naive tokio-interval loop doing the same work in the same run.
     Rt {
@@ -237,6 +243,17 @@ fn run(args: Args) -> anyhow::Result<()> {
             );
             let summary = actuatord::demo::run(&config, &plant, &script, &record)?;
             println!("{summary}");
+            Ok(())
+        }
+        Command::Bench {
+            what: BenchCommand::Paper { json },
+        } => {
+            let rows = actuatord::bench::run_paper_bench();
+            if json {
+                println!("{}", serde_json::to_string_pretty(&rows)?);
+            } else {
+                println!("{}", actuatord::bench::PaperTable(&rows));
+            }
             Ok(())
         }
         Command::Bench {

@@ -5,3 +5,29 @@ mod friction_ff;
 
 pub use discrete::{ControllerError, DiscreteController, MAX_ORDER};
 pub use friction_ff::FrictionFeedForward;
+mod adaptive_friction;
+mod adaptive_pneumatic;
+mod direction_p;
+mod dither;
+mod integrator_design;
+mod learned_table;
+mod nonlinear_correction;
+mod param_error;
+mod scheduling;
+mod state_feedback;
+
+pub use adaptive_friction::{AdaptiveFriction, AdaptiveFrictionConfig, AdaptiveFrictionOutput};
+pub use adaptive_pneumatic::{
+    GainSource, PneumaticAdaptive, PneumaticAdaptiveConfig, PneumaticStep,
+};
+pub use direction_p::{DirectionalP, DirectionalPConfig};
+pub use dither::{Dither, DitherConfig};
+pub use integrator_design::{effort_weight_for_pole, integrator_lq_gain};
+pub use learned_table::{
+    LearnedCellState, LearnedTable, LearnedTableConfig, LearnedTableState, OperatingPoint,
+    LEARNED_TABLE_VERSION,
+};
+pub use nonlinear_correction::{NonlinearCorrection, NonlinearCorrectionConfig};
+pub use param_error::ParamError;
+pub use scheduling::{GainSchedule, SchedulePoint, MAX_SCHEDULED};
+pub use state_feedback::{StateFeedback, MAX_STATES};

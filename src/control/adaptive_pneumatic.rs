@@ -1,0 +1,240 @@
+//! Parameter-adaptive control of the pneumatic drive (Isermann & Raab, "parameter-adaptive
+//! control"): online identification of the integrator gains per direction, quadratic-cost redesign
+//! of the direction-dependent P controller, a supervision level, and scheduling as the fallback.
+//!
+//! - model per direction, with an offset that absorbs friction (the paper's `C_DC±`):
+//!   `(Y(k) - Y(k-1)) / T_0 = K_I± U(k-1) + c±`, estimated by DSFI with `λ = 0.975`, one estimator
+//!   per direction, fed only samples of monotone motion in the direction of the valve opened
+//!   (`U(k-1)`, `U(k-2)` of one sign, `ΔY(k)`, `ΔY(k-1)` of that sign);
+//! - supervision ([`EstimatorSupervisor`]): estimation only under excitation, `z = 1 - ψᵀγ`
+//!   watched, `K_I±` checked against a plausibility band;
+//! - scheduled gains `[K_I1, K_I2] = f(P_L)` from a table ([`GainSchedule`]) are the fallback and
+//!   the starting point; `q0± = integrator_lq_gain(K_I±, T_0, r)` ([`integrator_lq_gain`]).
+
+use super::direction_p::{DirectionalP, DirectionalPConfig};
+use super::integrator_design::integrator_lq_gain;
+use super::param_error::{positive, ParamError};
+use super::scheduling::{GainSchedule, SchedulePoint};
+use crate::ident::{Dsfi, DsfiConfig, RecursiveEstimator};
+use crate::supervise::{EstimatorHealth, EstimatorSupervisor, EstimatorSupervisorConfig};
+
+/// Configuration of [`PneumaticAdaptive`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct PneumaticAdaptiveConfig {
+    /// `T_0` (s), 20 ms in the paper.
+    pub period_s: f64,
+    /// Schedule points: supply pressure (Pa, absolute) → `[K_I1 down, K_I2 up]` (m/s).
+    pub schedule: Vec<SchedulePoint>,
+    /// `r` of the quadratic cost (m² per duty²).
+    pub effort_weight_m2: f64,
+    /// Identify and use the estimates (false: scheduling only).
+    pub adapt: bool,
+    /// DSFI forgetting factor λ (0.975 in the paper).
+    pub forgetting: f64,
+    /// Estimator supervision: excitation thresholds (`min_input` duty, `min_output_step` m),
+    /// `min_updates`, `eigenvalue_valid`; `plausible` holds the band of `K_I` (m/s) first.
+    pub supervision: EstimatorSupervisorConfig,
+    /// Errors within this give no command (m).
+    pub deadband_m: f64,
+    /// Duty limits, usually -1..1.
+    pub output_min: f64,
+    pub output_max: f64,
+}
+
+/// Where the gains in use come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum GainSource {
+    #[default]
+    Scheduled,
+    Adapted,
+}
+
+/// What one step did.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PneumaticStep {
+    /// Duty to apply.
+    pub duty: f64,
+    /// `q01`, `q02` in use (duty per m).
+    pub gain_down_per_m: f64,
+    pub gain_up_per_m: f64,
+    /// `K_I1`, `K_I2` in use (m/s).
+    pub drive_gain_down_m_per_s: f64,
+    pub drive_gain_up_m_per_s: f64,
+    /// Estimates (m/s), whatever their health.
+    pub estimate_down_m_per_s: f64,
+    pub estimate_up_m_per_s: f64,
+    pub source_down: GainSource,
+    pub source_up: GainSource,
+    pub health_down: EstimatorHealth,
+    pub health_up: EstimatorHealth,
+    /// `z` of the estimator updated this step, 1 when none was.
+    pub eigenvalue: f64,
+}
+
+/// Scheduled and parameter-adaptive direction-dependent P control. `step` is allocation-free.
+#[derive(Debug, Clone)]
+pub struct PneumaticAdaptive {
+    period_s: f64,
+    effort_weight_m2: f64,
+    adapt: bool,
+    schedule: GainSchedule,
+    controller: DirectionalP,
+    estimators: [Dsfi; 2],
+    supervisors: [EstimatorSupervisor; 2],
+    y_prev: Option<f64>,
+    dy_prev: f64,
+    u_prev: [f64; 2],
+}
+
+const DOWN: usize = 0;
+const UP: usize = 1;
+
+impl PneumaticAdaptive {
+    pub fn new(config: &PneumaticAdaptiveConfig) -> Result<Self, ParamError> {
+        positive("period_s", config.period_s)?;
+        let mut schedule = GainSchedule::new(&config.schedule)?;
+        if schedule.len() != 2 {
+            return Err(ParamError::new(
+                "schedule",
+                format!(
+                    "needs [K_I1, K_I2] per point, got {} values",
+                    schedule.len()
+                ),
+            ));
+        }
+        for p in &config.schedule {
+            for &k in &p.params {
+                positive("schedule", k)?;
+            }
+        }
+        if !(config.effort_weight_m2 >= 0.0 && config.effort_weight_m2.is_finite()) {
+            return Err(ParamError::new(
+                "effort_weight_m2",
+                "must be finite and >= 0",
+            ));
+        }
+        let k0 = schedule.step(f64::NEG_INFINITY);
+        let (k_down, k_up) = (k0[0], k0[1]);
+        let q = |k| integrator_lq_gain(k, config.period_s, config.effort_weight_m2);
+        let (Some(q_down), Some(q_up)) = (q(k_down), q(k_up)) else {
+            return Err(ParamError::new("schedule", "gives no valid gain"));
+        };
+        let controller = DirectionalP::new(DirectionalPConfig {
+            gain_neg_per_m: q_down,
+            gain_pos_per_m: q_up,
+            deadband_m: config.deadband_m,
+            output_min: config.output_min,
+            output_max: config.output_max,
+        })?;
+        let dsfi = |k: f64| {
+            Dsfi::with_initial(
+                &[k, 0.0],
+                DsfiConfig {
+                    forgetting: config.forgetting,
+                    initial_covariance: 1.0,
+                    information_floor: Some(1e-3),
+                },
+            )
+            .map_err(|e| ParamError::new("forgetting", e.to_string()))
+        };
+        let sup = EstimatorSupervisor::new(&config.supervision)?;
+        Ok(Self {
+            period_s: config.period_s,
+            effort_weight_m2: config.effort_weight_m2,
+            adapt: config.adapt,
+            schedule,
+            controller,
+            estimators: [dsfi(k_down)?, dsfi(k_up)?],
+            supervisors: [sup.clone(), sup],
+            y_prev: None,
+            dy_prev: 0.0,
+            u_prev: [0.0; 2],
+        })
+    }
+
+    /// Identification with `ΔY(k)` and `U(k-1)`; returns the eigenvalue of the update, if any.
+    fn identify(&mut self, position: f64) -> f64 {
+        let Some(y_prev) = self.y_prev else {
+            return 1.0;
+        };
+        let dy = position - y_prev;
+        let u1 = self.u_prev[0];
+        let u2 = self.u_prev[1];
+        let dir = if u1 < 0.0 && u2 < 0.0 && dy < 0.0 && self.dy_prev < 0.0 {
+            DOWN
+        } else if u1 > 0.0 && u2 > 0.0 && dy > 0.0 && self.dy_prev > 0.0 {
+            UP
+        } else {
+            return 1.0;
+        };
+        if !self.supervisors[dir].excited(u1, dy) {
+            return 1.0;
+        }
+        // v(k) = K_I± U(k-1) + c±  (signed: down has U < 0 and v < 0)
+        let psi = [u1, 1.0];
+        let v = dy / self.period_s;
+        match self.estimators[dir].step(&psi, v) {
+            Ok(update) => {
+                let theta = self.estimators[dir].theta();
+                self.supervisors[dir].observe(&update, &theta[..1]);
+                update.eigenvalue
+            }
+            Err(_) => 1.0,
+        }
+    }
+
+    /// One cycle: set-point `w` (m), position `Y` (m), measured supply pressure `P_L` (Pa).
+    pub fn step(&mut self, setpoint: f64, position: f64, supply_pa: f64) -> PneumaticStep {
+        let mut eigenvalue = 1.0;
+        if position.is_finite() {
+            if self.adapt {
+                eigenvalue = self.identify(position);
+            }
+            if let Some(y_prev) = self.y_prev {
+                self.dy_prev = position - y_prev;
+            }
+            self.y_prev = Some(position);
+        }
+        let scheduled = self.schedule.step(supply_pa);
+        let (mut k, mut source) = ([scheduled[0], scheduled[1]], [GainSource::Scheduled; 2]);
+        let mut estimate = [0.0; 2];
+        for d in [DOWN, UP] {
+            estimate[d] = self.estimators[d].theta()[0];
+            if self.adapt && self.supervisors[d].health() == EstimatorHealth::Valid {
+                k[d] = estimate[d];
+                source[d] = GainSource::Adapted;
+            }
+        }
+        let q = |k| integrator_lq_gain(k, self.period_s, self.effort_weight_m2);
+        if let (Some(qd), Some(qu)) = (q(k[DOWN]), q(k[UP])) {
+            self.controller.set_gains(qd, qu);
+        }
+        let duty = self.controller.step(setpoint, position);
+        self.u_prev = [duty, self.u_prev[0]];
+        let (qd, qu) = self.controller.gains();
+        PneumaticStep {
+            duty,
+            gain_down_per_m: qd,
+            gain_up_per_m: qu,
+            drive_gain_down_m_per_s: k[DOWN],
+            drive_gain_up_m_per_s: k[UP],
+            estimate_down_m_per_s: estimate[DOWN],
+            estimate_up_m_per_s: estimate[UP],
+            source_down: source[DOWN],
+            source_up: source[UP],
+            health_down: self.supervisors[DOWN].health(),
+            health_up: self.supervisors[UP].health(),
+            eigenvalue,
+        }
+    }
+
+    /// Restart estimation from the scheduled gains (after a fault reset or a big supply change).
+    pub fn restart_estimation(&mut self, supply_pa: f64) {
+        let k = self.schedule.step(supply_pa);
+        let k = [k[0], k[1]];
+        for d in [DOWN, UP] {
+            let _ = self.estimators[d].reset_to(&[k[d], 0.0]);
+            self.supervisors[d].reset();
+        }
+    }
+}

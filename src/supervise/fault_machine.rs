@@ -1,0 +1,293 @@
+//! The decision level of the supervision (Isermann & Raab, inference part: "decisions for fault
+//! handling: request maintenance, fail safe, switch off a faulty actuator"): a fault state machine
+//! `ok → warning → maintenance requested → fail-safe` with a configurable reaction per fault.
+//!
+//! A fault present for `persistence` consecutive cycles latches until [`FaultMachine::reset`];
+//! while present but not yet latched it is pending and the state is at least `Warning`. The state
+//! is the most severe reaction among the latched faults; it never falls back on its own.
+
+use crate::control::ParamError;
+
+/// Faults found by the model-based supervision (and the limit checks as one entry).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+pub enum SupervisedFault {
+    /// F1, from the parameter diagnosis.
+    SpringPretension,
+    /// F2.
+    SpringStiffness,
+    /// F3.
+    FrictionIncrease,
+    /// F4.
+    CurrentGain,
+    /// The disturbance observer's `x4` left its bands (friction rise).
+    ObserverFriction,
+    /// The adaptive controller's estimator is implausible (it runs on scheduled gains).
+    EstimatorImplausible,
+    /// A limit check latched (following error, end of range, current, supply, timeouts).
+    LimitViolation,
+}
+
+impl SupervisedFault {
+    /// Bit order of [`SupervisedFaults`].
+    pub const ALL: [SupervisedFault; 7] = [
+        SupervisedFault::SpringPretension,
+        SupervisedFault::SpringStiffness,
+        SupervisedFault::FrictionIncrease,
+        SupervisedFault::CurrentGain,
+        SupervisedFault::ObserverFriction,
+        SupervisedFault::EstimatorImplausible,
+        SupervisedFault::LimitViolation,
+    ];
+
+    pub fn bit(self) -> u16 {
+        1 << (self as u16)
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SupervisedFault::SpringPretension => "spring_pretension",
+            SupervisedFault::SpringStiffness => "spring_stiffness",
+            SupervisedFault::FrictionIncrease => "friction_increase",
+            SupervisedFault::CurrentGain => "current_gain",
+            SupervisedFault::ObserverFriction => "observer_friction",
+            SupervisedFault::EstimatorImplausible => "estimator_implausible",
+            SupervisedFault::LimitViolation => "limit_violation",
+        }
+    }
+}
+
+/// A set of [`SupervisedFault`]s, one bit each (the symptom bits on the bus).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub struct SupervisedFaults(pub u16);
+
+impl SupervisedFaults {
+    pub fn contains(self, f: SupervisedFault) -> bool {
+        self.0 & f.bit() != 0
+    }
+    pub fn insert(&mut self, f: SupervisedFault) {
+        self.0 |= f.bit();
+    }
+    pub fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+    pub fn iter(self) -> impl Iterator<Item = SupervisedFault> {
+        SupervisedFault::ALL
+            .into_iter()
+            .filter(move |f| self.contains(*f))
+    }
+}
+
+/// The reaction to a latched fault, in increasing severity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Reaction {
+    /// Report only.
+    Warning,
+    /// Keep working, ask for maintenance.
+    Maintenance,
+    /// Drive the actuator to its safe state and hold it there.
+    FailSafe,
+}
+
+/// The state of the machine, in increasing severity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Default)]
+pub enum SupervisionLevel {
+    #[default]
+    Ok,
+    Warning,
+    MaintenanceRequested,
+    FailSafe,
+}
+
+impl SupervisionLevel {
+    /// Code on the bus.
+    pub fn code(self) -> u8 {
+        self as u8
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            SupervisionLevel::Ok => "ok",
+            SupervisionLevel::Warning => "warning",
+            SupervisionLevel::MaintenanceRequested => "maintenance_requested",
+            SupervisionLevel::FailSafe => "fail_safe",
+        }
+    }
+}
+
+/// Reaction and persistence of one fault.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FaultPolicy {
+    pub fault: SupervisedFault,
+    pub reaction: Reaction,
+    /// Consecutive cycles present before it latches (at least 1).
+    pub persistence_cycles: u32,
+}
+
+/// Policies for all faults; faults without a policy latch at once with `Warning`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FaultMachineConfig {
+    pub policies: Vec<FaultPolicy>,
+}
+
+impl Default for FaultMachineConfig {
+    /// Slow multiplicative faults ask for maintenance, a current-circuit fault and limit
+    /// violations go to the safe state, an implausible estimator only warns.
+    fn default() -> Self {
+        let p = |fault, reaction, persistence_cycles| FaultPolicy {
+            fault,
+            reaction,
+            persistence_cycles,
+        };
+        use Reaction::*;
+        use SupervisedFault::*;
+        Self {
+            policies: vec![
+                p(SpringPretension, Maintenance, 1),
+                p(SpringStiffness, Maintenance, 1),
+                p(FrictionIncrease, Maintenance, 1),
+                p(CurrentGain, FailSafe, 1),
+                p(ObserverFriction, Maintenance, 1),
+                p(EstimatorImplausible, Warning, 10),
+                p(LimitViolation, FailSafe, 1),
+            ],
+        }
+    }
+}
+
+/// What the machine decided this cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct FaultMachineOutput {
+    pub level: SupervisionLevel,
+    pub latched: SupervisedFaults,
+    /// Latched in this very cycle (one EMCY each).
+    pub raised: SupervisedFaults,
+    pub pending: SupervisedFaults,
+    /// The actuator must be in its safe state.
+    pub fail_safe: bool,
+}
+
+const N: usize = SupervisedFault::ALL.len();
+
+/// The fault state machine. `step` is allocation-free.
+#[derive(Debug, Clone)]
+pub struct FaultMachine {
+    reaction: [Reaction; N],
+    persistence: [u32; N],
+    count: [u32; N],
+    latched: SupervisedFaults,
+}
+
+impl FaultMachine {
+    pub fn new(config: &FaultMachineConfig) -> Result<Self, ParamError> {
+        let mut reaction = [Reaction::Warning; N];
+        let mut persistence = [1; N];
+        let mut seen = SupervisedFaults::default();
+        for p in &config.policies {
+            if seen.contains(p.fault) {
+                return Err(ParamError::new(
+                    "policies",
+                    format!("{} is given twice", p.fault.name()),
+                ));
+            }
+            seen.insert(p.fault);
+            reaction[p.fault as usize] = p.reaction;
+            persistence[p.fault as usize] = p.persistence_cycles.max(1);
+        }
+        Ok(Self {
+            reaction,
+            persistence,
+            count: [0; N],
+            latched: SupervisedFaults::default(),
+        })
+    }
+
+    /// One cycle with the faults present now.
+    pub fn step(&mut self, present: SupervisedFaults) -> FaultMachineOutput {
+        let before = self.latched;
+        let mut pending = SupervisedFaults::default();
+        for f in SupervisedFault::ALL {
+            let i = f as usize;
+            if present.contains(f) {
+                self.count[i] = self.count[i].saturating_add(1);
+                if self.count[i] >= self.persistence[i] {
+                    self.latched.insert(f);
+                } else {
+                    pending.insert(f);
+                }
+            } else {
+                self.count[i] = 0;
+            }
+        }
+        let mut level = SupervisionLevel::Ok;
+        for f in self.latched.iter() {
+            let l = match self.reaction[f as usize] {
+                Reaction::Warning => SupervisionLevel::Warning,
+                Reaction::Maintenance => SupervisionLevel::MaintenanceRequested,
+                Reaction::FailSafe => SupervisionLevel::FailSafe,
+            };
+            level = level.max(l);
+        }
+        if !pending.is_empty() {
+            level = level.max(SupervisionLevel::Warning);
+        }
+        FaultMachineOutput {
+            level,
+            latched: self.latched,
+            raised: SupervisedFaults(self.latched.0 & !before.0),
+            pending,
+            fail_safe: level == SupervisionLevel::FailSafe,
+        }
+    }
+
+    /// Clear everything latched (a reset from the automation system or after maintenance).
+    pub fn reset(&mut self) {
+        self.latched = SupervisedFaults::default();
+        self.count = [0; N];
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn set(faults: &[SupervisedFault]) -> SupervisedFaults {
+        let mut s = SupervisedFaults::default();
+        for f in faults {
+            s.insert(*f);
+        }
+        s
+    }
+
+    #[test]
+    fn escalates_by_reaction_latches_and_resets() {
+        let mut m = FaultMachine::new(&FaultMachineConfig::default()).expect("valid");
+        assert_eq!(m.step(set(&[])).level, SupervisionLevel::Ok);
+        let out = m.step(set(&[SupervisedFault::EstimatorImplausible]));
+        assert_eq!(out.level, SupervisionLevel::Warning);
+        assert!(out.latched.is_empty());
+        let out = m.step(set(&[SupervisedFault::FrictionIncrease]));
+        assert_eq!(out.level, SupervisionLevel::MaintenanceRequested);
+        assert!(out.raised.contains(SupervisedFault::FrictionIncrease));
+        // Latched: gone from the input, still requested, not raised again.
+        let out = m.step(set(&[]));
+        assert_eq!(out.level, SupervisionLevel::MaintenanceRequested);
+        assert!(out.raised.is_empty());
+        let out = m.step(set(&[SupervisedFault::CurrentGain]));
+        assert_eq!(out.level, SupervisionLevel::FailSafe);
+        assert!(out.fail_safe);
+        m.reset();
+        assert_eq!(m.step(set(&[])).level, SupervisionLevel::Ok);
+    }
+
+    #[test]
+    fn reaction_is_configurable_and_duplicates_are_refused() {
+        let mut cfg = FaultMachineConfig::default();
+        cfg.policies[3].reaction = Reaction::Warning;
+        let mut m = FaultMachine::new(&cfg).expect("valid");
+        assert_eq!(
+            m.step(set(&[SupervisedFault::CurrentGain])).level,
+            SupervisionLevel::Warning
+        );
+        cfg.policies.push(cfg.policies[0]);
+        assert!(FaultMachine::new(&cfg).is_err());
+    }
+}

@@ -1,0 +1,279 @@
+//! Every algorithm's per-cycle call allocates nothing after construction: a counting global
+//! allocator (counter per thread, so parallel tests do not disturb each other) around the loops.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use actuatord::control::*;
+use actuatord::ident::{
+    ArxOrder, DirectionalRegressor, DirectionalSelection, Dsfi, DsfiConfig, RecursiveEstimator,
+    Rls, RlsConfig, StateVariableFilter,
+};
+use actuatord::supervise::*;
+
+struct Counting;
+
+thread_local! {
+    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations() -> u64 {
+    ALLOCATIONS.with(|c| c.get())
+}
+
+/// Runs `f` for many steps and returns the allocations it made.
+fn count(mut f: impl FnMut(usize)) -> u64 {
+    let before = allocations();
+    for k in 0..5000 {
+        f(k);
+    }
+    allocations() - before
+}
+
+fn signal(k: usize) -> f64 {
+    let t = k as f64 * 0.0025;
+    0.005 + 0.002 * (7.0 * t).sin() + 0.001 * (23.0 * t).sin()
+}
+
+#[test]
+fn the_counter_sees_an_allocation() {
+    let n = count(|k| {
+        std::hint::black_box(vec![k; 4]);
+    });
+    assert_eq!(n, 5000);
+}
+
+#[test]
+fn existing_controller_friction_feed_forward_and_limits_do_not_allocate() {
+    let mut c = DiscreteController::pidt1([2231.0, -4204.0, 2000.0], 0.616, 0.0, 24.0).expect("ok");
+    let ff = FrictionFeedForward::from_forces(0.8, 0.2, 0.2, 1.63, 3e-6);
+    let band = |lo, hi| {
+        Some(Band {
+            low: lo,
+            high: hi,
+            persistence_cycles: 3,
+        })
+    };
+    let mut lim = LimitSupervisor::new(Limits {
+        following_error: band(-1e-3, 1e-3),
+        position: band(0.0, 0.025),
+        current_a: band(-3.0, 3.0),
+        supply_voltage_v: band(18.0, 30.0),
+        supply_pressure_pa: None,
+        sensor_timeout_cycles: 4,
+        heartbeat_timeout_s: Some(0.5),
+    });
+    let n = count(|k| {
+        let e = 0.005 - signal(k);
+        let u = c.propose(e) + ff.compensation(e);
+        c.commit(e, u);
+        std::hint::black_box(c.step(e));
+        std::hint::black_box(lim.step(&SupervisionInput {
+            setpoint: 0.005,
+            position: signal(k),
+            supply_voltage_v: 24.0,
+            sensor_fresh: true,
+            node_operational: true,
+            ..Default::default()
+        }));
+    });
+    assert_eq!(n, 0);
+}
+
+#[test]
+fn identification_steps_do_not_allocate() {
+    let mut rls = Rls::new(3, RlsConfig::default()).expect("ok");
+    let mut dsfi = Dsfi::new(3, DsfiConfig::default()).expect("ok");
+    let mut dir = DirectionalRegressor::new(DirectionalSelection::new(ArxOrder {
+        na: 2,
+        nb: 1,
+        delay: 0,
+    }))
+    .expect("ok");
+    let mut svf = StateVariableFilter::new(4, 3, 150.0, 0.0025).expect("ok");
+    let n = count(|k| {
+        let psi = [signal(k), signal(k + 1), 1.0];
+        let y = 0.3 * signal(k + 2);
+        std::hint::black_box(rls.step(&psi, y).ok());
+        std::hint::black_box(dsfi.step(&psi, y).ok());
+        if let Some((_, p)) = dir.push(signal(k), 0.1) {
+            std::hint::black_box(p[0]);
+        }
+        std::hint::black_box(svf.step(signal(k))[3]);
+    });
+    assert_eq!(n, 0);
+}
+
+#[test]
+fn new_control_algorithms_do_not_allocate() {
+    let mut p = DirectionalP::new(DirectionalPConfig {
+        gain_neg_per_m: 500.0,
+        gain_pos_per_m: 700.0,
+        deadband_m: 1e-6,
+        output_min: -1.0,
+        output_max: 1.0,
+    })
+    .expect("ok");
+    let mut sf = StateFeedback::new(&[100.0, 20.0], 100.0, -10.0, 10.0).expect("ok");
+    let mut nl = NonlinearCorrection::new(NonlinearCorrectionConfig {
+        pole_m: 0.026,
+        c0: 1.53,
+        c1_per_m: -30.0,
+        c2_per_m2: 0.0,
+        reference_position_m: 0.0,
+        min_gain_ratio: 0.2,
+        output_min: 0.0,
+        output_max: 24.0,
+    })
+    .expect("ok");
+    let mut dither = Dither::new(DitherConfig {
+        period_s: 0.0025,
+        amplitude: 0.2,
+        frequency_hz: 50.0,
+        adapt: true,
+        amplitude_min: 0.0,
+        amplitude_max: 1.0,
+        frequency_min_hz: 20.0,
+        frequency_max_hz: 200.0,
+        amplitude_rate_per_s: 1.0,
+        frequency_rate_per_s: 1.0,
+        error_tolerance_m: 20e-6,
+        ripple_moving_m: 1e-6,
+        ripple_max_m: 10e-6,
+        ripple_time_constant_s: 0.02,
+    })
+    .expect("ok");
+    let mut af = AdaptiveFriction::new(AdaptiveFrictionConfig {
+        period_s: 0.0025,
+        model_time_constant_s: 0.03,
+        adaptation_gain_per_m_s: 2000.0,
+        max_compensation: 0.4,
+        initial_pos: 0.0,
+        initial_neg: 0.0,
+        error_deadband_m: 3e-6,
+        model_deadband_m: 10e-6,
+        settled_band_m: 20e-6,
+    })
+    .expect("ok");
+    let point = |s: f64, k: f64| SchedulePoint {
+        supply: s,
+        params: vec![k, 0.7 * k],
+    };
+    let mut sched =
+        GainSchedule::new(&[point(40_000.0, 0.05), point(80_000.0, 0.012)]).expect("ok");
+    let mut table = LearnedTable::new(LearnedTableConfig {
+        position_edges_m: vec![0.0, 0.01, 0.02],
+        load_edges_n: vec![-10.0, 10.0],
+        supply_edges: vec![40_000.0, 60_000.0, 80_000.0],
+        param_names: vec!["q01_per_m".into(), "q02_per_m".into()],
+        averaging_count: 10,
+        min_count: 1,
+    })
+    .expect("ok");
+    let mut ad = PneumaticAdaptive::new(&PneumaticAdaptiveConfig {
+        period_s: 0.02,
+        schedule: vec![point(60_000.0, 0.03)],
+        effort_weight_m2: 1e-7,
+        adapt: true,
+        forgetting: 0.975,
+        supervision: EstimatorSupervisorConfig {
+            min_input: 0.1,
+            min_output_step: 1e-6,
+            min_updates: 4,
+            eigenvalue_valid: 0.5,
+            plausible: vec![(0.005, 0.1)],
+        },
+        deadband_m: 1e-6,
+        output_min: -1.0,
+        output_max: 1.0,
+    })
+    .expect("ok");
+    let mut y_pn = 0.008;
+    let n = count(|k| {
+        let y = signal(k);
+        let w = if (k / 200) % 2 == 0 { 0.006 } else { 0.004 };
+        std::hint::black_box(p.step(w, y));
+        std::hint::black_box(sf.step(&[y, 0.0], w));
+        std::hint::black_box(nl.step(6.0, y));
+        std::hint::black_box(dither.step(w, y));
+        std::hint::black_box(af.step(w, y));
+        std::hint::black_box(sched.step(50_000.0 + k as f64)[0]);
+        let op = OperatingPoint {
+            position_m: y,
+            load_n: 0.0,
+            supply: 60_000.0,
+        };
+        table.learn(&op, &[500.0, 600.0]);
+        std::hint::black_box(table.lookup(&op));
+        let out = ad.step(w, y_pn, 60_000.0);
+        y_pn += 0.03 * 0.02 * out.duty;
+    });
+    assert_eq!(n, 0);
+}
+
+#[test]
+fn supervision_algorithms_do_not_allocate() {
+    let mut obs =
+        DisturbanceObserver::new(actuatord::bench::paper::solenoid_observer_config()).expect("ok");
+    let mut est = ParameterEstimator::new(ParameterEstimatorConfig {
+        period_s: 0.0025,
+        filter_omega_rad_s: 150.0,
+        forgetting: 0.999,
+        mass_kg: 0.4956,
+        nominal_current_time_constant_s: 0.00859,
+        moving_speed_m_per_s: 1e-3,
+        min_moving_samples: 8,
+    })
+    .expect("ok");
+    let mut sup = EstimatorSupervisor::new(&EstimatorSupervisorConfig {
+        min_input: 0.1,
+        min_output_step: 1e-6,
+        min_updates: 4,
+        eigenvalue_valid: 0.5,
+        plausible: vec![(0.005, 0.1)],
+    })
+    .expect("ok");
+    let mut machine = FaultMachine::new(&FaultMachineConfig::default()).expect("ok");
+    let nominal = PhysicalParameters {
+        values: [1.0; PHYSICAL_PARAMS],
+    };
+    let n = count(|k| {
+        let y = signal(k);
+        std::hint::black_box(obs.step(y, 6.0 + 1000.0 * (y - 0.005)));
+        est.step(y, 6.0 + 1000.0 * (y - 0.005));
+        let update = actuatord::ident::RecursiveUpdate {
+            prediction_error: 0.0,
+            posterior_error: 0.0,
+            eigenvalue: 0.9,
+            guarded: false,
+        };
+        std::hint::black_box(sup.observe(&update, &[0.03]));
+        let mut present = SupervisedFaults::default();
+        if k % 100 == 0 {
+            present.insert(SupervisedFault::EstimatorImplausible);
+        }
+        std::hint::black_box(machine.step(present));
+        if let Some(p) = est.physical() {
+            let s = symptoms(&p, &nominal, &[0.1; PHYSICAL_PARAMS]);
+            std::hint::black_box(diagnose(&s, 1));
+        }
+    });
+    assert_eq!(n, 0);
+}
