@@ -1,0 +1,539 @@
+//! The objects of `actuatord` itself: the CiA 301 communication objects it serves and one
+//! manufacturer block per axis. Entry names are the config keys and DBC signal names.
+//!
+//! Layout (see [`index`]):
+//!
+//! | index | object |
+//! |---|---|
+//! | 1000h, 1001h, 1008h, 100Ah, 1016h, 1017h, 1018h, 1200h | CiA 301 communication objects |
+//! | 2000h + 100h·axis + 00h | axis: name, actuator node id, command kind, safe command |
+//! | … + 01h | controller: q0..q5, p1..p6, output limits |
+//! | … + 02h | friction compensation |
+//! | … + 03h | limits (supervision) |
+//! | … + 04h | setpoint |
+//! | … + 05h | fault state, counters, reset |
+//! | … + 10h | learned parameters (results of identification and adaptation, read-only) |
+//! | 2F00h | loop statistics of the cycle (node-wide: one cycle serves every axis) |
+//!
+//! The protocol layer does not read the daemon's configuration: the runtime fills
+//! [`DeviceParameters`] and [`AxisParameters`] from it, and a tool that only needs the types
+//! uses their defaults.
+
+use super::{BuildError, EntrySpec, ObjectDictionary, ObjectDictionaryBuilder, ObjectId, Value};
+
+/// Manufacturer blocks are 100h apart from 2000h; 2F00h is node-wide, so 15 axes fit.
+pub const MAX_AXES: usize = 15;
+
+/// Object indexes of the daemon's dictionary.
+pub mod index {
+    pub const DEVICE_TYPE: u16 = 0x1000;
+    pub const ERROR_REGISTER: u16 = 0x1001;
+    pub const DEVICE_NAME: u16 = 0x1008;
+    pub const SOFTWARE_VERSION: u16 = 0x100A;
+    pub const CONSUMER_HEARTBEAT_TIME: u16 = 0x1016;
+    pub const PRODUCER_HEARTBEAT_TIME: u16 = 0x1017;
+    pub const IDENTITY: u16 = 0x1018;
+    pub const SDO_SERVER_PARAMETER: u16 = 0x1200;
+
+    pub const AXIS_BASE: u16 = 0x2000;
+    pub const AXIS_STRIDE: u16 = 0x100;
+    /// Offsets inside an axis block.
+    pub const AXIS: u16 = 0x00;
+    pub const CONTROLLER: u16 = 0x01;
+    pub const FRICTION_COMPENSATION: u16 = 0x02;
+    pub const LIMITS: u16 = 0x03;
+    pub const SETPOINT: u16 = 0x04;
+    pub const FAULT: u16 = 0x05;
+    pub const LEARNED: u16 = 0x10;
+
+    pub const LOOP_STATISTICS: u16 = 0x2F00;
+
+    /// Index of `offset` in the block of `axis` (0-based).
+    pub const fn axis(axis: usize, offset: u16) -> u16 {
+        AXIS_BASE + AXIS_STRIDE * axis as u16 + offset
+    }
+
+    /// The axis and offset of a manufacturer index, if it is in an axis block.
+    pub const fn split(index: u16) -> Option<(usize, u16)> {
+        if index < AXIS_BASE || index >= LOOP_STATISTICS {
+            return None;
+        }
+        let rel = index - AXIS_BASE;
+        Some(((rel / AXIS_STRIDE) as usize, rel % AXIS_STRIDE))
+    }
+}
+
+/// Node-wide facts for the communication objects.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeviceParameters {
+    /// The daemon's own node id (SDO COB-IDs are made from it).
+    pub node_id: u8,
+    pub device_name: String,
+    pub software_version: String,
+    pub vendor_id: u32,
+    pub product_code: u32,
+    pub revision_number: u32,
+    pub serial_number: u32,
+    pub heartbeat_period_s: f64,
+}
+
+impl Default for DeviceParameters {
+    fn default() -> Self {
+        Self {
+            node_id: 1,
+            device_name: "actuatord".into(),
+            software_version: env!("CARGO_PKG_VERSION").into(),
+            // No vendor id is registered with CiA for this project: 0 = not assigned.
+            vendor_id: 0,
+            product_code: 0,
+            revision_number: version_number(),
+            serial_number: 0,
+            heartbeat_period_s: 0.1,
+        }
+    }
+}
+
+/// `major << 16 | minor` of the crate version, for 1018h sub 3.
+fn version_number() -> u32 {
+    let major: u32 = env!("CARGO_PKG_VERSION_MAJOR").parse().unwrap_or(0);
+    let minor: u32 = env!("CARGO_PKG_VERSION_MINOR").parse().unwrap_or(0);
+    (major << 16) | (minor & 0xFFFF)
+}
+
+/// One axis' configured parameters, as the dictionary shows them. A limit that is not
+/// configured is infinite (a minimum -inf, a maximum or time +inf): "not watched".
+#[derive(Debug, Clone, PartialEq)]
+pub struct AxisParameters {
+    pub name: String,
+    pub actuator_node_id: u8,
+    /// The command is a signed valve duty (-1..1) instead of a voltage.
+    pub command_duty: bool,
+    pub safe_command: f64,
+    pub initial_setpoint_m: f64,
+    /// Rate limit of the reference, m/s; infinite = steps.
+    pub setpoint_rate_max_m_per_s: f64,
+    /// q_0..q_5 (unused ones 0), command unit per m.
+    pub q_per_m: [f64; 6],
+    /// p_1..p_6 (unused ones 0).
+    pub p: [f64; 6],
+    pub output_min: f64,
+    pub output_max: f64,
+    pub friction_compensation_enabled: bool,
+    pub alpha: f64,
+    pub coulomb_pos_n: f64,
+    pub coulomb_neg_n: f64,
+    pub force_gain_n_per_command: f64,
+    pub deadband_m: f64,
+    pub following_error_m: f64,
+    pub following_error_time_s: f64,
+    pub position_min_m: f64,
+    pub position_max_m: f64,
+    pub current_max_a: f64,
+    pub current_time_s: f64,
+    pub supply_voltage_min_v: f64,
+    pub supply_voltage_max_v: f64,
+    pub supply_pressure_min_pa: f64,
+    pub supply_pressure_max_pa: f64,
+    pub supply_time_s: f64,
+    pub sensor_timeout_s: f64,
+    pub heartbeat_timeout_s: f64,
+}
+
+impl Default for AxisParameters {
+    fn default() -> Self {
+        Self {
+            name: "axis".into(),
+            actuator_node_id: 16,
+            command_duty: false,
+            safe_command: 0.0,
+            initial_setpoint_m: 0.0,
+            setpoint_rate_max_m_per_s: f64::INFINITY,
+            q_per_m: [0.0; 6],
+            p: [0.0; 6],
+            output_min: -1.0,
+            output_max: 1.0,
+            friction_compensation_enabled: false,
+            alpha: 1.0,
+            coulomb_pos_n: 0.0,
+            coulomb_neg_n: 0.0,
+            force_gain_n_per_command: 1.0,
+            deadband_m: 0.0,
+            following_error_m: f64::INFINITY,
+            following_error_time_s: 0.25,
+            position_min_m: f64::NEG_INFINITY,
+            position_max_m: f64::INFINITY,
+            current_max_a: f64::INFINITY,
+            current_time_s: 0.01,
+            supply_voltage_min_v: f64::NEG_INFINITY,
+            supply_voltage_max_v: f64::INFINITY,
+            supply_pressure_min_pa: f64::NEG_INFINITY,
+            supply_pressure_max_pa: f64::INFINITY,
+            supply_time_s: 0.01,
+            sensor_timeout_s: 0.02,
+            heartbeat_timeout_s: f64::INFINITY,
+        }
+    }
+}
+
+/// Bounds of a command output: ±1000 V for a voltage, ±1 for a duty.
+fn command_bound(a: &AxisParameters) -> f64 {
+    if a.command_duty {
+        1.0
+    } else {
+        1000.0
+    }
+}
+
+/// Coefficients are refused beyond this magnitude (and when not finite).
+const COEFFICIENT_BOUND: f64 = 1e12;
+/// Supervision times: at least 100 µs, at most an hour.
+const TIME_MIN_S: f64 = 1e-4;
+const TIME_MAX_S: f64 = 3600.0;
+/// Smallest value of a quantity that must be > 0.
+const POSITIVE_MIN: f64 = 1e-9;
+
+const Q_NAMES: [&str; 6] = [
+    "q0_per_m", "q1_per_m", "q2_per_m", "q3_per_m", "q4_per_m", "q5_per_m",
+];
+const P_NAMES: [&str; 6] = ["p1", "p2", "p3", "p4", "p5", "p6"];
+const AXIS_NAMES: [&str; MAX_AXES] = [
+    "axis0", "axis1", "axis2", "axis3", "axis4", "axis5", "axis6", "axis7", "axis8", "axis9",
+    "axis10", "axis11", "axis12", "axis13", "axis14",
+];
+
+/// 1016h entry: actuator node id in bits 16..23, time in ms in bits 0..15 (0 = not watched).
+pub fn consumer_heartbeat_entry(node_id: u8, timeout_s: f64) -> u32 {
+    let ms = if timeout_s.is_finite() && timeout_s > 0.0 {
+        (timeout_s * 1000.0).round().clamp(1.0, 65535.0) as u32
+    } else {
+        0
+    };
+    (u32::from(node_id) << 16) | ms
+}
+
+/// Build the dictionary of the daemon for `device` and `axes` (at most [`MAX_AXES`]).
+///
+/// Errors only if a configured value lies outside the bounds of its object or there are too
+/// many axes, i.e. the configuration and the table disagree.
+pub fn daemon_dictionary(
+    device: &DeviceParameters,
+    axes: &[AxisParameters],
+) -> Result<ObjectDictionary, BuildError> {
+    if axes.len() > MAX_AXES {
+        return Err(BuildError::BadEntry {
+            id: ObjectId::new(index::axis(MAX_AXES, 0), 0),
+            name: "axis",
+            problem: format!("at most {MAX_AXES} axes, got {}", axes.len()),
+        });
+    }
+    let text = |name: &'static str, s: &str| {
+        Value::string(s).ok_or_else(|| BuildError::BadEntry {
+            id: ObjectId::new(0, 0),
+            name,
+            problem: format!("{s:?} is not printable ASCII of at most 64 bytes"),
+        })
+    };
+    let heartbeat_ms = (device.heartbeat_period_s * 1000.0)
+        .round()
+        .clamp(1.0, 65535.0) as u16;
+    let sdo_rx = 0x600 + u32::from(device.node_id);
+    let sdo_tx = 0x580 + u32::from(device.node_id);
+    let mut b = ObjectDictionary::builder()
+        .var(
+            index::DEVICE_TYPE,
+            EntrySpec::ro("device_type", 0u32)
+                .doc("CiA 301 1000h; 0: no standard device profile"),
+        )
+        .var(
+            index::ERROR_REGISTER,
+            EntrySpec::ro("error_register", 0u8)
+                .pdo()
+                .doc("CiA 301 1001h; bit 0 generic, 1 current, 2 voltage, 4 communication, 7 manufacturer"),
+        )
+        .var(
+            index::DEVICE_NAME,
+            EntrySpec::ro(
+                "manufacturer_device_name",
+                text("manufacturer_device_name", &device.device_name)?,
+            ),
+        )
+        .var(
+            index::SOFTWARE_VERSION,
+            EntrySpec::ro(
+                "manufacturer_software_version",
+                text("manufacturer_software_version", &device.software_version)?,
+            ),
+        )
+        .var(
+            index::PRODUCER_HEARTBEAT_TIME,
+            EntrySpec::rw("producer_heartbeat_time", heartbeat_ms)
+                .unit("ms")
+                .range(Some(Value::Unsigned16(1)), None)
+                .doc("period of the daemon's heartbeat (heartbeat_period_s)"),
+        )
+        .record(
+            index::IDENTITY,
+            "identity",
+            None,
+            vec![
+                EntrySpec::ro("vendor_id", device.vendor_id),
+                EntrySpec::ro("product_code", device.product_code),
+                EntrySpec::ro("revision_number", device.revision_number)
+                    .doc("major << 16 | minor of the software version"),
+                EntrySpec::ro("serial_number", device.serial_number),
+            ],
+        )
+        .record(
+            index::SDO_SERVER_PARAMETER,
+            "sdo_server_parameter",
+            None,
+            vec![
+                EntrySpec::ro("cob_id_client_to_server", sdo_rx),
+                EntrySpec::ro("cob_id_server_to_client", sdo_tx),
+            ],
+        );
+    if !axes.is_empty() {
+        let entries = axes
+            .iter()
+            .enumerate()
+            .map(|(i, a)| {
+                EntrySpec::ro(
+                    AXIS_NAMES[i],
+                    consumer_heartbeat_entry(a.actuator_node_id, a.heartbeat_timeout_s),
+                )
+                .doc("actuator node id << 16 | heartbeat timeout in ms (0 = not watched); mirrors limits.heartbeat_timeout_s, write that one")
+            })
+            .collect();
+        b = b.array(
+            index::CONSUMER_HEARTBEAT_TIME,
+            "consumer_heartbeat_time",
+            None,
+            entries,
+        );
+    }
+    for (i, a) in axes.iter().enumerate() {
+        b = axis_objects(b, i, a)?;
+    }
+    b = b.record(
+        index::LOOP_STATISTICS,
+        "loop_statistics",
+        None,
+        vec![
+            EntrySpec::ro("cycles", 0u32).doc("cycles run since start (wraps)"),
+            EntrySpec::ro("overruns", 0u32).doc("cycles that missed their deadline (wraps)"),
+            EntrySpec::ro("frames_malformed", 0u32)
+                .doc("frames with a known id but a wrong length or value (wraps)"),
+            EntrySpec::ro("frames_unknown", 0u32).doc("frames with an id nobody here uses (wraps)"),
+            EntrySpec::ro("bus_errors", 0u32).doc("CAN error frames (wraps)"),
+            EntrySpec::ro("cycle_latency_max_us", 0u32)
+                .unit("us")
+                .doc("largest delay from cycle start to command sent, since start"),
+            EntrySpec::ro("cycle_latency_p99_us", 0u32)
+                .unit("us")
+                .doc("99th percentile of that delay over the last statistics window"),
+            EntrySpec::ro("wake_latency_max_us", 0u32)
+                .unit("us")
+                .doc("largest delay from release time to wake-up, since start"),
+        ],
+    );
+    b.build()
+}
+
+fn axis_objects(
+    b: ObjectDictionaryBuilder,
+    i: usize,
+    a: &AxisParameters,
+) -> Result<ObjectDictionaryBuilder, BuildError> {
+    let at = |offset| index::axis(i, offset);
+    let axis = Some(i);
+    let c = command_bound(a);
+    let cu = if a.command_duty { "" } else { "V" };
+    let name = Value::string(&a.name).ok_or_else(|| BuildError::BadEntry {
+        id: ObjectId::new(at(index::AXIS), 1),
+        name: "axis_name",
+        problem: format!("{:?} is not printable ASCII of at most 64 bytes", a.name),
+    })?;
+    let mut controller: Vec<EntrySpec> = Q_NAMES
+        .iter()
+        .zip(a.q_per_m)
+        .map(|(n, q)| {
+            EntrySpec::rw_preop(n, q)
+                .unit(if a.command_duty { "1/m" } else { "V/m" })
+                .between(-COEFFICIENT_BOUND, COEFFICIENT_BOUND)
+                .doc("numerator coefficient q_j of u(k) = -sum p_i u(k-i) + sum q_j e(k-j)")
+        })
+        .collect();
+    controller.extend(P_NAMES.iter().zip(a.p).map(|(n, p)| {
+        EntrySpec::rw_preop(n, p)
+            .between(-COEFFICIENT_BOUND, COEFFICIENT_BOUND)
+            .doc("denominator coefficient p_i (without the leading 1)")
+    }));
+    controller.push(
+        EntrySpec::rw_preop("output_min", a.output_min)
+            .unit(cu)
+            .between(-c, c)
+            .doc("lower output limit"),
+    );
+    controller.push(
+        EntrySpec::rw_preop("output_max", a.output_max)
+            .unit(cu)
+            .between(-c, c)
+            .doc("upper output limit"),
+    );
+    let limits = vec![
+        EntrySpec::rw_preop("following_error_m", a.following_error_m)
+            .unit("m")
+            .between(POSITIVE_MIN, f64::INFINITY)
+            .doc("largest |setpoint - position| before following_error is raised; inf = not watched"),
+        EntrySpec::rw_preop("following_error_time_s", a.following_error_time_s)
+            .unit("s")
+            .between(TIME_MIN_S, TIME_MAX_S),
+        EntrySpec::rw_preop("position_min_m", a.position_min_m)
+            .unit("m")
+            .doc("-inf = not watched"),
+        EntrySpec::rw_preop("position_max_m", a.position_max_m)
+            .unit("m")
+            .doc("inf = not watched"),
+        EntrySpec::rw_preop("current_max_a", a.current_max_a)
+            .unit("A")
+            .between(POSITIVE_MIN, f64::INFINITY)
+            .doc("inf = not watched"),
+        EntrySpec::rw_preop("current_time_s", a.current_time_s)
+            .unit("s")
+            .between(TIME_MIN_S, TIME_MAX_S),
+        EntrySpec::rw_preop("supply_voltage_min_v", a.supply_voltage_min_v).unit("V"),
+        EntrySpec::rw_preop("supply_voltage_max_v", a.supply_voltage_max_v).unit("V"),
+        EntrySpec::rw_preop("supply_pressure_min_pa", a.supply_pressure_min_pa).unit("Pa"),
+        EntrySpec::rw_preop("supply_pressure_max_pa", a.supply_pressure_max_pa).unit("Pa"),
+        EntrySpec::rw_preop("supply_time_s", a.supply_time_s)
+            .unit("s")
+            .between(TIME_MIN_S, TIME_MAX_S),
+        EntrySpec::rw_preop("sensor_timeout_s", a.sensor_timeout_s)
+            .unit("s")
+            .between(TIME_MIN_S, TIME_MAX_S),
+        EntrySpec::rw_preop("heartbeat_timeout_s", a.heartbeat_timeout_s)
+            .unit("s")
+            .between(TIME_MIN_S, f64::INFINITY)
+            .doc("time without the actuator node's heartbeat before heartbeat_lost; inf = not watched"),
+    ];
+    let learned = vec![
+        EntrySpec::ro("friction_compensation", 0.0f64)
+            .unit(cu)
+            .doc("friction compensation command in use"),
+        EntrySpec::ro("gain_schedule_factor", 1.0f64)
+            .doc("controller gain factor from the supply schedule"),
+        EntrySpec::ro("estimated_k_i1", 0.0f64).doc("estimated K_I1 (parameter estimation)"),
+        EntrySpec::ro("estimated_k_i2", 0.0f64).doc("estimated K_I2 (parameter estimation)"),
+        EntrySpec::ro("observer_band_1", 0.0f64).doc("learned residual band of observer 1"),
+        EntrySpec::ro("observer_band_2", 0.0f64).doc("learned residual band of observer 2"),
+        EntrySpec::ro("observer_band_3", 0.0f64).doc("learned residual band of observer 3"),
+        EntrySpec::ro("observer_band_4", 0.0f64).doc("learned residual band of observer 4"),
+    ];
+    Ok(b
+        .record(
+            at(index::AXIS),
+            format!("axis{i}"),
+            axis,
+            vec![
+                EntrySpec::ro("axis_name", name),
+                EntrySpec::ro("actuator_node_id", a.actuator_node_id),
+                EntrySpec::ro("command_kind", u8::from(a.command_duty))
+                    .doc("0 voltage (V), 1 signed valve duty (-1..1)"),
+                EntrySpec::rw_preop("safe_command", a.safe_command)
+                    .unit(cu)
+                    .between(-c, c)
+                    .doc("command while a fault is latched"),
+            ],
+        )
+        .record(
+            at(index::CONTROLLER),
+            format!("axis{i}_controller"),
+            axis,
+            controller,
+        )
+        .ordered(
+            ObjectId::new(at(index::CONTROLLER), 13),
+            ObjectId::new(at(index::CONTROLLER), 14),
+        )
+        .record(
+            at(index::FRICTION_COMPENSATION),
+            format!("axis{i}_friction_compensation"),
+            axis,
+            vec![
+                EntrySpec::rw_preop("enabled", a.friction_compensation_enabled),
+                EntrySpec::rw_preop("alpha", a.alpha)
+                    .between(1e-3, 1.0)
+                    .doc("safety factor of U_comp = alpha F_C / K sign(e)"),
+                EntrySpec::rw_preop("coulomb_pos_n", a.coulomb_pos_n)
+                    .unit("N")
+                    .between(0.0, 1e6),
+                EntrySpec::rw_preop("coulomb_neg_n", a.coulomb_neg_n)
+                    .unit("N")
+                    .between(0.0, 1e6),
+                EntrySpec::rw_preop("force_gain_n_per_command", a.force_gain_n_per_command)
+                    .unit(if a.command_duty { "N" } else { "N/V" })
+                    .between(POSITIVE_MIN, 1e9),
+                EntrySpec::rw_preop("deadband_m", a.deadband_m)
+                    .unit("m")
+                    .between(0.0, 1.0),
+            ],
+        )
+        .record(
+            at(index::LIMITS),
+            format!("axis{i}_limits"),
+            axis,
+            limits,
+        )
+        .ordered(
+            ObjectId::new(at(index::LIMITS), 3),
+            ObjectId::new(at(index::LIMITS), 4),
+        )
+        .ordered(
+            ObjectId::new(at(index::LIMITS), 7),
+            ObjectId::new(at(index::LIMITS), 8),
+        )
+        .ordered(
+            ObjectId::new(at(index::LIMITS), 9),
+            ObjectId::new(at(index::LIMITS), 10),
+        )
+        .record(
+            at(index::SETPOINT),
+            format!("axis{i}_setpoint"),
+            axis,
+            vec![
+                EntrySpec::rw("setpoint_position", a.initial_setpoint_m)
+                    .unit("m")
+                    .between(a.position_min_m, a.position_max_m)
+                    .pdo()
+                    .doc("position setpoint, a setpoint frame overrides it"),
+                EntrySpec::rw_preop("setpoint_rate_max_m_per_s", a.setpoint_rate_max_m_per_s)
+                    .unit("m/s")
+                    .between(POSITIVE_MIN, f64::INFINITY)
+                    .doc("rate limit of the reference the loop tracks, inf = steps"),
+            ],
+        )
+        .record(
+            at(index::FAULT),
+            format!("axis{i}_fault"),
+            axis,
+            vec![
+                EntrySpec::ro("fault_state", 0u8)
+                    .pdo()
+                    .doc("0 ok, 1 warning, 2 fault (latched, axis in safe state)"),
+                EntrySpec::ro("fault_flags", 0u16)
+                    .pdo()
+                    .doc("latched faults, bit 0 first: following_error, end_of_range, overcurrent, supply_voltage, supply_pressure, sensor_timeout, heartbeat_lost, node_state"),
+                EntrySpec::ro("faults_raised", 0u32).doc("faults raised since start (wraps)"),
+                EntrySpec::ro("sensor_missed", 0u32)
+                    .doc("cycles without a sensor frame in time (wraps)"),
+                EntrySpec::wo("fault_reset", false)
+                    .doc("write true to reset the latched faults of this axis"),
+            ],
+        )
+        .record(
+            at(index::LEARNED),
+            format!("axis{i}_learned"),
+            axis,
+            learned,
+        ))
+}

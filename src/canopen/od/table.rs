@@ -1,0 +1,67 @@
+//! The dictionary as a Markdown table, for the README and the issue notes.
+
+use super::{ObjectDictionary, Value};
+use std::fmt::Write;
+
+/// One row per entry: address, object and entry name, type, unit, access, bounds, default and
+/// description. Subindex 0 of arrays and records is left out (it only counts the entries).
+pub fn markdown_table(od: &ObjectDictionary) -> String {
+    let mut out = String::from(
+        "| index:sub | object | entry | type | unit | access | min | max | default | description |\n\
+         |---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for object in od.objects() {
+        for e in od.object_entries(object) {
+            if e.id.sub == 0 && object.kind != super::ObjectKind::Var {
+                continue;
+            }
+            let bound = |v: Option<Value>| v.map_or(String::new(), |v| v.to_string());
+            // Rows are plain text; a '|' in a description would break the table.
+            let _ = writeln!(
+                out,
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                e.id,
+                object.name,
+                e.name,
+                e.data_type,
+                e.unit,
+                e.access.name(),
+                bound(e.min),
+                bound(e.max),
+                cell(&e.default.to_string()),
+                cell(e.description),
+            );
+        }
+    }
+    out
+}
+
+fn cell(text: &str) -> String {
+    text.replace('|', "\\|")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{daemon_dictionary, AxisParameters, DeviceParameters};
+    use super::*;
+
+    #[test]
+    fn one_row_per_entry_with_a_header() {
+        let od = daemon_dictionary(&DeviceParameters::default(), &[AxisParameters::default()])
+            .expect("defaults fit the table");
+        let table = markdown_table(&od);
+        let rows = table.lines().count();
+        let subzero = od
+            .objects()
+            .iter()
+            .filter(|o| o.kind != super::super::ObjectKind::Var)
+            .count();
+        assert_eq!(rows, 2 + od.entries().len() - subzero);
+        assert!(
+            table.contains("| 2001:01 | axis0_controller | q0_per_m | REAL64 | V/m | rw-preop |")
+        );
+        assert!(table
+            .lines()
+            .all(|l| l.matches(" | ").count() == 9 || l.starts_with("|---")));
+    }
+}

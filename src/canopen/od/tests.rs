@@ -1,0 +1,334 @@
+use super::*;
+
+fn small() -> ObjectDictionary {
+    ObjectDictionary::builder()
+        .var(0x1001, EntrySpec::ro("error_register", 0u8))
+        .record(
+            0x2000,
+            "gains",
+            Some(0),
+            vec![
+                EntrySpec::rw_preop("kp", 1.0f64).between(0.0, 10.0),
+                EntrySpec::rw("level", 5u8)
+                    .range(Some(Value::Unsigned8(1)), Some(Value::Unsigned8(9))),
+                EntrySpec::rw_preop("low", 0.0f64),
+                EntrySpec::rw_preop("high", 1.0f64),
+                EntrySpec::wo("reset", false),
+            ],
+        )
+        .ordered(ObjectId::new(0x2000, 3), ObjectId::new(0x2000, 4))
+        .build()
+        .expect("valid table")
+}
+
+const PRE: NmtState = NmtState::PreOperational;
+const OP: NmtState = NmtState::Operational;
+
+#[test]
+fn lookups_tell_a_missing_object_from_a_missing_subindex() {
+    let od = small();
+    assert_eq!(od.find(ObjectId::new(0x3000, 0)), Err(OdError::NoObject));
+    assert_eq!(od.find(ObjectId::new(0x2000, 9)), Err(OdError::NoSubIndex));
+    assert_eq!(od.find(ObjectId::new(0x1001, 1)), Err(OdError::NoSubIndex));
+    assert_eq!(od.read(ObjectId::new(0x2000, 0)), Ok(Value::Unsigned8(5)));
+    assert_eq!(od.read(ObjectId::new(0x2000, 5)), Err(OdError::WriteOnly));
+    let h = od.handle_by_name(Some(0), "kp").expect("kp");
+    assert_eq!(od.entry(h).id, ObjectId::new(0x2000, 1));
+    assert!(od.handle_by_name(None, "error_register").is_some());
+    assert!(od.handle_by_name(None, "kp").is_none());
+}
+
+#[test]
+fn writes_are_checked_then_staged_and_only_seen_after_the_boundary() {
+    let mut od = small();
+    let kp = ObjectId::new(0x2000, 1);
+    assert_eq!(od.stage_write(kp, &2.5f64.to_le_bytes(), PRE), Ok(()));
+    assert_eq!(od.read(kp), Ok(Value::Real64(1.0)), "not applied yet");
+    // A second write to the same entry replaces the first.
+    assert_eq!(od.stage_write(kp, &3.5f64.to_le_bytes(), PRE), Ok(()));
+    assert_eq!(od.pending_writes().len(), 1);
+    let taken: Vec<_> = od.take_pending_writes().collect();
+    assert_eq!(taken.len(), 1);
+    assert_eq!(taken[0].name, "kp");
+    assert_eq!(taken[0].axis, Some(0));
+    assert_eq!(taken[0].value, Value::Real64(3.5));
+    assert_eq!(od.read(kp), Ok(Value::Real64(3.5)));
+    assert!(od.pending_writes().is_empty());
+}
+
+#[test]
+fn every_refusal_has_its_reason_and_stages_nothing() {
+    let mut od = small();
+    let kp = ObjectId::new(0x2000, 1);
+    let level = ObjectId::new(0x2000, 2);
+    let cases: [(ObjectId, Vec<u8>, NmtState, OdError); 9] = [
+        (ObjectId::new(0x1001, 0), vec![1], PRE, OdError::ReadOnly),
+        (ObjectId::new(0x2000, 0), vec![1], PRE, OdError::ReadOnly),
+        (
+            kp,
+            2.0f64.to_le_bytes().to_vec(),
+            OP,
+            OdError::RefusedInState,
+        ),
+        (kp, vec![0; 4], PRE, OdError::WrongLength),
+        (kp, 11.0f64.to_le_bytes().to_vec(), PRE, OdError::TooHigh),
+        (kp, (-1.0f64).to_le_bytes().to_vec(), PRE, OdError::TooLow),
+        (
+            kp,
+            f64::NAN.to_le_bytes().to_vec(),
+            PRE,
+            OdError::OutOfRange,
+        ),
+        (level, vec![0], OP, OdError::TooLow),
+        (ObjectId::new(0x2000, 5), vec![7], OP, OdError::OutOfRange),
+    ];
+    for (id, bytes, state, err) in cases {
+        assert_eq!(
+            od.stage_write(id, &bytes, state),
+            Err(err),
+            "{id} {bytes:?}"
+        );
+    }
+    assert!(od.pending_writes().is_empty());
+    // A plain rw entry and a write-only command are fine while operational.
+    assert_eq!(od.stage_write(level, &[9], OP), Ok(()));
+    assert_eq!(od.stage_write(ObjectId::new(0x2000, 5), &[1], OP), Ok(()));
+}
+
+#[test]
+fn ordered_pairs_stay_ordered_against_staged_values() {
+    let mut od = small();
+    let low = ObjectId::new(0x2000, 3);
+    let high = ObjectId::new(0x2000, 4);
+    assert_eq!(
+        od.stage_write(low, &1.0f64.to_le_bytes(), PRE),
+        Err(OdError::TooHigh)
+    );
+    assert_eq!(
+        od.stage_write(high, &0.0f64.to_le_bytes(), PRE),
+        Err(OdError::TooLow)
+    );
+    // Move the window up: the high side first, then the low side against the staged high.
+    assert_eq!(od.stage_write(high, &5.0f64.to_le_bytes(), PRE), Ok(()));
+    assert_eq!(od.stage_write(low, &4.0f64.to_le_bytes(), PRE), Ok(()));
+    assert_eq!(od.take_pending_writes().count(), 2);
+    assert_eq!(od.read(low), Ok(Value::Real64(4.0)));
+}
+
+#[test]
+fn publish_is_type_checked_and_not_staged() {
+    let mut od = small();
+    let h = od.handle(ObjectId::new(0x1001, 0)).expect("exists");
+    assert_eq!(od.publish(h, 0x11u8), Ok(()));
+    assert_eq!(
+        od.read(ObjectId::new(0x1001, 0)),
+        Ok(Value::Unsigned8(0x11))
+    );
+    assert_eq!(
+        od.publish(h, 1u32),
+        Err(OdError::TypeMismatch {
+            expected: DataType::Unsigned8,
+            got: DataType::Unsigned32
+        })
+    );
+    assert!(od.pending_writes().is_empty());
+    od.reset_to_defaults();
+    assert_eq!(od.read(ObjectId::new(0x1001, 0)), Ok(Value::Unsigned8(0)));
+}
+
+#[test]
+fn the_staging_area_never_grows_past_the_writable_entries() {
+    let mut od = small();
+    let cap = od.pending.capacity();
+    for i in 0..100u8 {
+        let _ = od.stage_write(ObjectId::new(0x2000, 2), &[1 + i % 9], PRE);
+        let _ = od.stage_write(
+            ObjectId::new(0x2000, 1),
+            &f64::from(i % 10).to_le_bytes(),
+            PRE,
+        );
+        let _ = od.stage_write(ObjectId::new(0x2000, 5), &[1], PRE);
+    }
+    assert_eq!(od.pending_writes().len(), 3);
+    assert_eq!(od.pending.capacity(), cap);
+}
+
+#[test]
+fn builder_refuses_inconsistent_tables() {
+    let dup = ObjectDictionary::builder()
+        .var(0x1000, EntrySpec::ro("a", 0u32))
+        .var(0x1000, EntrySpec::ro("b", 0u32))
+        .build();
+    assert_eq!(
+        dup.err(),
+        Some(BuildError::DuplicateIndex { index: 0x1000 })
+    );
+    let names = ObjectDictionary::builder()
+        .record(
+            0x2000,
+            "r",
+            None,
+            vec![EntrySpec::ro("a", 0u8), EntrySpec::ro("a", 1u8)],
+        )
+        .build();
+    assert!(matches!(names, Err(BuildError::DuplicateEntryName { .. })));
+    let out = ObjectDictionary::builder()
+        .var(0x2000, EntrySpec::rw("a", 5.0f64).between(0.0, 1.0))
+        .build();
+    assert!(matches!(out, Err(BuildError::BadEntry { .. })));
+    let mixed = ObjectDictionary::builder()
+        .array(
+            0x2000,
+            "arr",
+            None,
+            vec![EntrySpec::ro("a", 0u8), EntrySpec::ro("b", 0u16)],
+        )
+        .build();
+    assert!(matches!(mixed, Err(BuildError::BadEntry { .. })));
+    let order = ObjectDictionary::builder()
+        .var(0x2000, EntrySpec::rw("a", 0u8))
+        .ordered(ObjectId::new(0x2000, 0), ObjectId::new(0x2001, 0))
+        .build();
+    assert!(matches!(order, Err(BuildError::BadOrder(..))));
+}
+
+#[test]
+fn object_ids_parse_and_print_in_hex() {
+    assert_eq!(ObjectId::parse("1018:4"), Some(ObjectId::new(0x1018, 4)));
+    assert_eq!(
+        ObjectId::parse("0x2001:0x0d"),
+        Some(ObjectId::new(0x2001, 13))
+    );
+    assert_eq!(ObjectId::parse("2001:d"), Some(ObjectId::new(0x2001, 13)));
+    assert_eq!(ObjectId::parse("12345:0"), None);
+    assert_eq!(ObjectId::parse("1000:100"), None);
+    assert_eq!(ObjectId::parse("1000"), None);
+    assert_eq!(ObjectId::new(0x2001, 13).to_string(), "2001:0D");
+}
+
+fn solenoid() -> AxisParameters {
+    AxisParameters {
+        name: "solenoid".into(),
+        q_per_m: [2231.0, -4204.0, 2000.0, 0.0, 0.0, 0.0],
+        p: [-1.616, 0.616, 0.0, 0.0, 0.0, 0.0],
+        output_min: 0.0,
+        output_max: 24.0,
+        initial_setpoint_m: 0.005,
+        position_min_m: -0.0005,
+        position_max_m: 0.0255,
+        heartbeat_timeout_s: 0.5,
+        ..AxisParameters::default()
+    }
+}
+
+#[test]
+fn daemon_dictionary_has_the_standard_and_axis_objects() {
+    let axes = [solenoid(), AxisParameters::default()];
+    let od = daemon_dictionary(&DeviceParameters::default(), &axes).expect("fits");
+    for index in [
+        0x1000, 0x1001, 0x1008, 0x100A, 0x1016, 0x1017, 0x1018, 0x1200, 0x2F00,
+    ] {
+        assert!(od.object(index).is_some(), "{index:04X}");
+    }
+    for axis in 0..2 {
+        for offset in [0x00, 0x01, 0x02, 0x03, 0x04, 0x05, 0x10] {
+            let o = od.object(index::axis(axis, offset)).expect("axis object");
+            assert_eq!(o.axis, Some(axis));
+            assert_eq!(index::split(o.index), Some((axis, offset)));
+        }
+    }
+    let q0 = od.handle_by_name(Some(0), "q0_per_m").expect("q0");
+    assert_eq!(od.value(q0), Value::Real64(2231.0));
+    assert_eq!(od.entry(q0).access, Access::ReadWritePreOperational);
+    assert_eq!(
+        od.read(ObjectId::new(0x1016, 1)),
+        Ok(Value::Unsigned32((16 << 16) | 500))
+    );
+    assert_eq!(
+        od.read(ObjectId::new(0x1016, 2)),
+        Ok(Value::Unsigned32(16 << 16))
+    );
+    assert_eq!(
+        od.read(ObjectId::new(0x1200, 1)),
+        Ok(Value::Unsigned32(0x601))
+    );
+    assert_eq!(
+        od.read(ObjectId::new(0x2000, 1)),
+        Ok(Value::string("solenoid").expect("ascii"))
+    );
+    // Within an axis (and node-wide), every entry name is unique, so (axis, name) finds it.
+    for e in od.entries() {
+        if e.id.sub == 0
+            && od
+                .object(e.id.index)
+                .is_some_and(|o| o.kind != ObjectKind::Var)
+        {
+            continue;
+        }
+        assert_eq!(
+            od.handle_by_name(e.axis, e.name).map(|h| od.entry(h).id),
+            Some(e.id)
+        );
+    }
+    // Results are read-only; learned results and statistics too.
+    for name in [
+        "friction_compensation",
+        "estimated_k_i1",
+        "observer_band_4",
+        "fault_state",
+    ] {
+        let h = od.handle_by_name(Some(1), name).expect(name);
+        assert_eq!(od.entry(h).access, Access::ReadOnly, "{name}");
+    }
+}
+
+#[test]
+fn safety_relevant_objects_are_refused_while_operational() {
+    let mut od = daemon_dictionary(&DeviceParameters::default(), &[solenoid()]).expect("fits");
+    let q0 = ObjectId::new(0x2001, 1);
+    let bytes = 2000.0f64.to_le_bytes();
+    assert_eq!(od.stage_write(q0, &bytes, OP), Err(OdError::RefusedInState));
+    assert_eq!(od.stage_write(q0, &bytes, PRE), Ok(()));
+    // The setpoint is a plain rw entry, bounded by the travel.
+    let sp = ObjectId::new(0x2004, 1);
+    assert_eq!(od.stage_write(sp, &0.01f64.to_le_bytes(), OP), Ok(()));
+    assert_eq!(
+        od.stage_write(sp, &0.03f64.to_le_bytes(), OP),
+        Err(OdError::TooHigh)
+    );
+    // output_min must stay below output_max.
+    assert_eq!(
+        od.stage_write(ObjectId::new(0x2001, 13), &30.0f64.to_le_bytes(), PRE),
+        Err(OdError::TooHigh)
+    );
+}
+
+#[test]
+fn too_many_axes_or_a_long_name_are_build_errors() {
+    let many = vec![AxisParameters::default(); MAX_AXES + 1];
+    assert!(daemon_dictionary(&DeviceParameters::default(), &many).is_err());
+    let long = AxisParameters {
+        name: "x".repeat(STRING_CAPACITY + 1),
+        ..AxisParameters::default()
+    };
+    assert!(daemon_dictionary(&DeviceParameters::default(), &[long]).is_err());
+    let all = vec![AxisParameters::default(); MAX_AXES];
+    assert!(daemon_dictionary(&DeviceParameters::default(), &all).is_ok());
+}
+
+#[test]
+fn lookup_takes_an_address_or_a_name() {
+    let od = daemon_dictionary(&DeviceParameters::default(), &[solenoid()]).expect("fits");
+    let id = |text: &str| od.lookup(text).map(|h| od.entry(h).id);
+    assert_eq!(id("2001:1"), Ok(ObjectId::new(0x2001, 1)));
+    assert_eq!(
+        id("axis0_controller.q0_per_m"),
+        Ok(ObjectId::new(0x2001, 1))
+    );
+    assert_eq!(id("producer_heartbeat_time"), Ok(ObjectId::new(0x1017, 0)));
+    assert_eq!(id("identity.serial_number"), Ok(ObjectId::new(0x1018, 4)));
+    assert_eq!(id("identity"), Err(OdError::NoSubIndex));
+    assert_eq!(id("axis0_controller.q9"), Err(OdError::NoSubIndex));
+    assert_eq!(id("nothing.here"), Err(OdError::NoObject));
+    assert_eq!(id("3000:0"), Err(OdError::NoObject));
+}
