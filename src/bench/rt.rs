@@ -285,6 +285,7 @@ fn measure(
         realtime_priority: config.cycle.realtime_priority,
         lock_memory: false,
         duration_s: Some(opts.seconds),
+        record_frames: false,
     };
     let loop_thread = {
         let sink = sink.clone();
@@ -395,7 +396,7 @@ fn collect(rx: std::sync::mpsc::Receiver<Record>, _period_s: f64) -> LoopFigures
                 }
             }
             Record::Event(Event::Overrun { .. }) => misses += 1,
-            Record::Event(_) => {}
+            Record::Event(_) | Record::Frame { .. } => {}
         }
     }
     LoopFigures {

@@ -75,6 +75,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         realtime_priority: config.cycle.realtime_priority,
         lock_memory: config.cycle.lock_memory,
         duration_s: args.duration_s,
+        record_frames: args.record.is_some() && config.record.can_frames,
     };
     let stop = Arc::new(AtomicBool::new(false));
     let (done_tx, done_rx) = tokio::sync::oneshot::channel();

@@ -92,11 +92,16 @@ impl Default for CycleConfig {
 pub struct RecordConfig {
     /// Records the cycle can queue for the writer before it drops (and counts) them.
     pub queue_depth: usize,
+    /// Record every CAN frame sent and received too (MCAP topic /actuatord/can).
+    pub can_frames: bool,
 }
 
 impl Default for RecordConfig {
     fn default() -> Self {
-        Self { queue_depth: 8192 }
+        Self {
+            queue_depth: 8192,
+            can_frames: true,
+        }
     }
 }
 

@@ -23,6 +23,8 @@ pub struct CycleSettings {
     pub lock_memory: bool,
     /// Stop by itself after this long (tests, demo); None runs until told to stop.
     pub duration_s: Option<f64>,
+    /// Record every CAN frame sent and received.
+    pub record_frames: bool,
 }
 
 /// What the cycle thread reports when it ends.
@@ -45,6 +47,7 @@ pub struct CycleRunner<'a> {
     period_ns: u64,
     sensor_wait: Duration,
     last_latency_s: f64,
+    record_frames: bool,
 }
 
 impl<'a> CycleRunner<'a> {
@@ -66,7 +69,14 @@ impl<'a> CycleRunner<'a> {
             period_ns: (period_s * 1e9).round() as u64,
             sensor_wait: Duration::from_secs_f64(sensor_deadline_s),
             last_latency_s: 0.0,
+            record_frames: false,
         }
+    }
+
+    /// Also hand every frame sent and received to the recorder.
+    pub fn record_frames(mut self, on: bool) -> Self {
+        self.record_frames = on;
+        self
     }
 
     /// CLOCK_MONOTONIC time of cycle `k`'s release.
@@ -109,16 +119,24 @@ impl<'a> CycleRunner<'a> {
         // socket queue (a full queue drops frames, counted by the kernel or the bus).
         for _ in 0..MAX_FRAMES_BEFORE_SYNC {
             match self.bus.recv_until(Instant::now())? {
-                Some(event) => on_event(self.node, event, t_s, &mut record),
+                Some(event) => on_event(self.node, event, t_s, self.record_frames, &mut record),
                 None => break,
             }
         }
         self.node.begin_cycle();
-        self.bus.send(&self.node.sync_frame())?;
+        let sync = self.node.sync_frame();
+        self.bus.send(&sync)?;
+        if self.record_frames {
+            record(Record::Frame {
+                t_s,
+                frame: sync,
+                received: false,
+            });
+        }
         let sensor_deadline = release + self.sensor_wait;
         while !self.node.all_sensors_in() {
             match self.bus.recv_until(sensor_deadline)? {
-                Some(event) => on_event(self.node, event, t_s, &mut record),
+                Some(event) => on_event(self.node, event, t_s, self.record_frames, &mut record),
                 None => break,
             }
         }
@@ -127,9 +145,17 @@ impl<'a> CycleRunner<'a> {
         let mut send_error = None;
         {
             let bus = &mut *self.bus;
+            let record_frames = self.record_frames;
             let mut send = |f: &Frame| {
                 if let Err(e) = bus.send(f) {
                     send_error.get_or_insert(e);
+                }
+                if record_frames {
+                    sink.push(Record::Frame {
+                        t_s,
+                        frame: *f,
+                        received: false,
+                    });
                 }
             };
             // Each axis' record is pushed right after its command went out: stamp it then.
@@ -198,7 +224,8 @@ pub fn run_cycle(
         sink,
         settings.period_s,
         settings.sensor_deadline_s,
-    );
+    )
+    .record_frames(settings.record_frames);
     runner.boot()?;
     let period_ns = runner.period_ns();
     let mut k: u64 = 0;
@@ -230,9 +257,24 @@ pub fn run_cycle(
     })
 }
 
-fn on_event(node: &mut ControllerNode, event: BusEvent, t_s: f64, record: &mut dyn FnMut(Record)) {
+fn on_event(
+    node: &mut ControllerNode,
+    event: BusEvent,
+    t_s: f64,
+    record_frames: bool,
+    record: &mut dyn FnMut(Record),
+) {
     match event {
-        BusEvent::Frame(frame) => node.handle(&frame, t_s, record),
+        BusEvent::Frame(frame) => {
+            if record_frames {
+                record(Record::Frame {
+                    t_s,
+                    frame,
+                    received: true,
+                });
+            }
+            node.handle(&frame, t_s, record)
+        }
         BusEvent::ErrorFrame(error) => {
             node.counters_mut().bus_errors += 1;
             record(Record::Event(Event::BusError { t_s, error }));

@@ -95,6 +95,12 @@ pub enum Event {
 pub enum Record {
     Cycle(CycleRecord),
     Event(Event),
+    /// A CAN frame the controller received (`received`) or sent, at cycle time `t_s`.
+    Frame {
+        t_s: f64,
+        frame: Frame,
+        received: bool,
+    },
 }
 
 impl Event {

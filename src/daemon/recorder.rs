@@ -2,6 +2,7 @@
 //! events. The cycle never waits for it; what does not fit in the queue is dropped and counted.
 
 use super::record::{CycleRecord, Event, Record};
+use crate::bus::Frame;
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;
@@ -15,6 +16,9 @@ use std::thread::JoinHandle;
 pub const CYCLE_TOPIC: &str = "/actuatord/cycle";
 /// MCAP topic of the events.
 pub const EVENT_TOPIC: &str = "/actuatord/events";
+
+/// MCAP topic of the raw CAN frames.
+pub const CAN_TOPIC: &str = "/actuatord/can";
 
 /// JSON schema of a cycle record, so MCAP viewers can show field types and units.
 const CYCLE_SCHEMA: &str = r#"{
@@ -52,6 +56,19 @@ const EVENT_SCHEMA: &str = r#"{
     "t_s": {"type": "number"},
     "kind": {"type": "string"},
     "message": {"type": "string"}
+  }
+}"#;
+
+const CAN_SCHEMA: &str = r#"{
+  "title": "actuatord CAN frame",
+  "description": "A frame the controller sent or received; decode with dbc/actuatord.dbc.",
+  "type": "object",
+  "properties": {
+    "t_s": {"type": "number", "description": "cycle time, s"},
+    "id": {"type": "integer"},
+    "extended": {"type": "boolean"},
+    "data": {"type": "string", "description": "data bytes, hex"},
+    "direction": {"type": "string", "enum": ["rx", "tx"]}
   }
 }"#;
 
@@ -96,6 +113,7 @@ pub struct RecorderReport {
     pub path: Option<PathBuf>,
     pub cycles_written: u64,
     pub events: u64,
+    pub frames: u64,
     pub dropped: u64,
 }
 
@@ -154,8 +172,10 @@ struct McapOut {
     writer: mcap::Writer<BufWriter<File>>,
     cycle_channel: u16,
     event_channel: u16,
+    can_channel: u16,
     cycle_seq: u32,
     event_seq: u32,
+    can_seq: u32,
 }
 
 impl McapOut {
@@ -165,8 +185,11 @@ impl McapOut {
             message,
         };
         let file = File::create(path).map_err(|e| err(e.to_string()))?;
+        // Small chunks: a killed daemon leaves a file readable up to its last finished chunk,
+        // so this bounds what is lost to well under a second of recording.
         let mut writer = mcap::WriteOptions::new()
             .library(concat!("actuatord ", env!("CARGO_PKG_VERSION")))
+            .chunk_size(Some(64 * 1024))
             .create(BufWriter::new(file))
             .map_err(|e| err(e.to_string()))?;
         let cycle_schema = writer
@@ -181,13 +204,21 @@ impl McapOut {
         let event_channel = writer
             .add_channel(event_schema, EVENT_TOPIC, "json", &BTreeMap::new())
             .map_err(|e| err(e.to_string()))?;
+        let can_schema = writer
+            .add_schema("actuatord.CanFrame", "jsonschema", CAN_SCHEMA.as_bytes())
+            .map_err(|e| err(e.to_string()))?;
+        let can_channel = writer
+            .add_channel(can_schema, CAN_TOPIC, "json", &BTreeMap::new())
+            .map_err(|e| err(e.to_string()))?;
         Ok(Self {
             path: path.to_path_buf(),
             writer,
             cycle_channel,
             event_channel,
+            can_channel,
             cycle_seq: 0,
             event_seq: 0,
+            can_seq: 0,
         })
     }
 
@@ -230,6 +261,34 @@ impl McapOut {
         };
         self.writer
             .write_to_known_channel(&header, &data)
+            .map_err(|x| self.err(x))
+    }
+
+    fn write_frame(
+        &mut self,
+        t_s: f64,
+        frame: &Frame,
+        received: bool,
+    ) -> Result<(), RecorderError> {
+        let data: String = frame.data().iter().map(|b| format!("{b:02X}")).collect();
+        let json = serde_json::to_vec(&serde_json::json!({
+            "t_s": t_s,
+            "id": frame.id(),
+            "extended": frame.is_extended(),
+            "data": data,
+            "direction": if received { "rx" } else { "tx" },
+        }))
+        .map_err(|x| self.err(x))?;
+        let time = (t_s * 1e9) as u64;
+        self.can_seq = self.can_seq.wrapping_add(1);
+        let header = mcap::records::MessageHeader {
+            channel_id: self.can_channel,
+            sequence: self.can_seq,
+            log_time: time,
+            publish_time: time,
+        };
+        self.writer
+            .write_to_known_channel(&header, &json)
             .map_err(|x| self.err(x))
     }
 
@@ -295,7 +354,18 @@ fn write_loop(
                 log_event(e);
                 o.map_or(Ok(()), |o| o.write_event(e))
             }
-            (Record::Cycle(_), None) => Ok(()),
+            (
+                Record::Frame {
+                    t_s,
+                    frame,
+                    received,
+                },
+                Some(o),
+            ) => {
+                report.frames += 1;
+                o.write_frame(*t_s, frame, *received)
+            }
+            (Record::Cycle(_), None) | (Record::Frame { .. }, None) => Ok(()),
         };
         if let Err(e) = result {
             // Keep draining so the cycle's queue never fills because the disk failed.

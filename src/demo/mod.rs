@@ -150,6 +150,7 @@ pub fn run(
         realtime_priority: 0,
         lock_memory: false,
         duration_s: Some(script.duration_s),
+        record_frames: config.record.can_frames,
     };
     let cycle = run_cycle(&mut daemon_bus, &mut controller, settings, &stop, &sink);
     stop.store(true, std::sync::atomic::Ordering::Relaxed);
