@@ -299,3 +299,192 @@ fn hex_le(raw: i32) -> String {
         .map(|b| format!("{b:02X}"))
         .collect()
 }
+
+const STREAM_READER: &str = r#"
+import sys
+from mcap.stream_reader import StreamReader
+from mcap.records import Message, Channel
+topics, n = {}, 0
+try:
+    for record in StreamReader(open(sys.argv[1], "rb")).records:
+        if isinstance(record, Channel):
+            topics[record.id] = record.topic
+        elif isinstance(record, Message) and topics.get(record.channel_id) == "/actuatord/cycle":
+            n += 1
+except Exception as e:
+    print("truncated:", type(e).__name__, file=sys.stderr)
+print(n)
+"#;
+
+#[test]
+#[ignore = "needs vcan0, candump and cansend: run through scripts/vcan-run (scripts/test does)"]
+fn daemon_notifies_systemd_stops_safely_and_a_killed_recording_stays_readable() {
+    use std::os::unix::net::UnixDatagram;
+    let dir = tempfile::tempdir().expect("tempdir");
+    let notify_path = dir.path().join("notify.sock");
+    let notify = UnixDatagram::bind(&notify_path).expect("notify socket");
+    notify
+        .set_read_timeout(Some(Duration::from_millis(100)))
+        .expect("timeout");
+    // Read like systemd does: all the time, on the side.
+    let (notes_tx, notes) = std::sync::mpsc::channel::<String>();
+    std::thread::spawn(move || {
+        let mut buf = [0u8; 512];
+        loop {
+            match notify.recv(&mut buf) {
+                Ok(n) => {
+                    if notes_tx
+                        .send(String::from_utf8_lossy(&buf[..n]).to_string())
+                        .is_err()
+                    {
+                        return;
+                    }
+                }
+                Err(e)
+                    if e.kind() == std::io::ErrorKind::WouldBlock
+                        || e.kind() == std::io::ErrorKind::TimedOut => {}
+                Err(_) => return,
+            }
+        }
+    });
+    let recording = dir.path().join("term.mcap");
+    let capture_path = dir.path().join("capture.log");
+
+    let mut candump = Proc(
+        Command::new("candump")
+            .args(["-L", &iface()])
+            .stdout(std::fs::File::create(&capture_path).expect("capture file"))
+            .spawn()
+            .expect("candump (can-utils) is installed"),
+    );
+    let mut sim = Proc(
+        Command::new(env!("CARGO_BIN_EXE_actuator"))
+            .args(["sim", "--iface", &iface()])
+            .spawn()
+            .expect("actuator sim starts"),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let mut daemon = Proc(
+        Command::new(env!("CARGO_BIN_EXE_actuatord"))
+            .arg("--config")
+            .arg(root("config/solenoid.toml"))
+            .args(["--iface", &iface(), "--record"])
+            .arg(&recording)
+            .env("NOTIFY_SOCKET", &notify_path)
+            .env("WATCHDOG_USEC", "200000")
+            .spawn()
+            .expect("actuatord starts"),
+    );
+    // As systemd does: wait for READY=1 (at most 10 s), let it run, then SIGTERM.
+    let mut messages = vec![];
+    let receive = |messages: &mut Vec<String>| messages.extend(notes.try_iter());
+    for _ in 0..1000 {
+        receive(&mut messages);
+        if messages.iter().any(|m| m.lines().any(|l| l == "READY=1")) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    eprintln!("vcan: {} sd_notify messages before SIGTERM", messages.len());
+    std::thread::sleep(Duration::from_millis(1500));
+    // SAFETY: plain kill(2) on a child we own.
+    let rc = unsafe { libc::kill(daemon.0.id() as libc::pid_t, libc::SIGTERM) };
+    eprintln!(
+        "vcan: SIGTERM sent to {} (kill returned {rc})",
+        daemon.0.id()
+    );
+    let status = daemon.0.wait().expect("actuatord ends");
+    assert!(
+        status.success(),
+        "SIGTERM must end with status 0, got {status}"
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    receive(&mut messages);
+    let count = |what: &str| {
+        messages
+            .iter()
+            .filter(|m| m.lines().any(|l| l == what))
+            .count()
+    };
+    eprintln!(
+        "vcan: sd_notify messages: READY {} WATCHDOG {} STOPPING {}",
+        count("READY=1"),
+        count("WATCHDOG=1"),
+        count("STOPPING=1")
+    );
+    assert_eq!(count("READY=1"), 1, "{messages:?}");
+    assert!(
+        count("WATCHDOG=1") >= 3,
+        "watchdog fed while the cycle runs: {messages:?}"
+    );
+    assert_eq!(count("STOPPING=1"), 1, "{messages:?}");
+
+    // The recording was flushed and closed: it reads back whole.
+    let cycles = actuatord::daemon::recorder::read_cycles(&recording).expect("recording reads");
+    assert!(cycles.len() > 300, "{} cycles recorded", cycles.len());
+
+    std::thread::sleep(Duration::from_millis(100));
+    interrupt(&mut candump);
+    let _ = candump.0.wait();
+    let text = std::fs::read_to_string(&capture_path).expect("capture");
+    let frames: Vec<Frame> = text
+        .lines()
+        .filter_map(|l| parse_candump_line(l).ok())
+        .map(|r| r.frame)
+        .collect();
+    let last_command = frames
+        .iter()
+        .rev()
+        .find(|f| f.id() == 0x210)
+        .map(|f| actuatord::canopen::CommandPdo::decode(f).expect("command decodes"))
+        .expect("commands captured");
+    assert_eq!(
+        last_command.voltage_v, 0.0,
+        "the safe command is the last one"
+    );
+    let last_heartbeat = frames
+        .iter()
+        .rev()
+        .find(|f| f.id() == 0x701)
+        .expect("heartbeat");
+    assert_eq!(
+        last_heartbeat.data(),
+        &[0x04],
+        "the controller says stopped"
+    );
+
+    // A daemon killed outright leaves a recording readable up to its last chunk.
+    let killed = dir.path().join("killed.mcap");
+    let mut daemon = Proc(
+        Command::new(env!("CARGO_BIN_EXE_actuatord"))
+            .arg("--config")
+            .arg(root("config/solenoid.toml"))
+            .args(["--iface", &iface(), "--record"])
+            .arg(&killed)
+            .spawn()
+            .expect("actuatord starts"),
+    );
+    std::thread::sleep(Duration::from_millis(2000));
+    // SAFETY: plain kill(2) on a child we own.
+    unsafe { libc::kill(daemon.0.id() as libc::pid_t, libc::SIGKILL) };
+    let _ = daemon.0.wait();
+    interrupt(&mut sim);
+    let _ = sim.0.wait();
+    let out = Command::new("python3")
+        .args(["-c", STREAM_READER])
+        .arg(&killed)
+        .output()
+        .expect("python3 runs");
+    let n: u64 = String::from_utf8_lossy(&out.stdout)
+        .trim()
+        .parse()
+        .unwrap_or(0);
+    eprintln!(
+        "vcan: killed after 2 s: {n} cycle records readable ({})",
+        String::from_utf8_lossy(&out.stderr).trim()
+    );
+    assert!(
+        n > 300,
+        "only {n} cycle records readable from a killed daemon's recording"
+    );
+}

@@ -298,8 +298,14 @@ fn measure(
             .spawn(move || -> Result<(bool, u64), RtBenchError> {
                 match kind {
                     LoopKind::Daemon => {
-                        let report =
-                            run_cycle(daemon_bus.as_mut(), &mut node, settings, &stop, &sink)?;
+                        let report = run_cycle(
+                            daemon_bus.as_mut(),
+                            &mut node,
+                            settings,
+                            &stop,
+                            &std::sync::atomic::AtomicU64::new(0),
+                            &sink,
+                        )?;
                         Ok((report.realtime, node.counters().sensor_missed))
                     }
                     LoopKind::Baseline => {

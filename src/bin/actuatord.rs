@@ -1,11 +1,12 @@
 //! `actuatord`: the control daemon. Argument parsing, start-up and shutdown only.
 
 use actuatord::bus::SocketCanBus;
+use actuatord::daemon::notify::{watchdog_interval, Notifier};
 use actuatord::daemon::{run_cycle, Config, ControllerNode, CycleSettings, Recorder};
 use clap::Parser;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 
 /// Intelligent actuator control daemon: a fixed-rate control cycle over SocketCAN.
@@ -48,6 +49,15 @@ fn main() -> ExitCode {
     }
 }
 
+/// Tell systemd (Type=notify); never blocks, a failure is logged, never fatal.
+fn notify(notifier: &Option<Notifier>, message: &str) {
+    if let Some(n) = notifier {
+        if let Err(e) = n.send(message) {
+            tracing::warn!("sd_notify {message:?}: {e}");
+        }
+    }
+}
+
 fn run(args: Args) -> anyhow::Result<()> {
     let mut config = Config::load(&args.config)?;
     if let Some(iface) = args.iface {
@@ -77,32 +87,80 @@ fn run(args: Args) -> anyhow::Result<()> {
         duration_s: args.duration_s,
         record_frames: args.record.is_some() && config.record.can_frames,
     };
+    // Signals are handled off the real-time thread, on a small runtime of their own; they are
+    // registered before the cycle starts, so a SIGTERM right after start-up is never lost.
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()?;
+    let (mut term, mut int) = runtime.block_on(async {
+        use tokio::signal::unix::{signal, SignalKind};
+        anyhow::Ok((
+            signal(SignalKind::terminate())?,
+            signal(SignalKind::interrupt())?,
+        ))
+    })?;
+    let notifier = Notifier::from_env().map_err(|e| anyhow::anyhow!("NOTIFY_SOCKET: {e}"))?;
     let stop = Arc::new(AtomicBool::new(false));
-    let (done_tx, done_rx) = tokio::sync::oneshot::channel();
+    let progress = Arc::new(AtomicU64::new(0));
+    let (done_tx, mut done_rx) = tokio::sync::oneshot::channel();
     let cycle_stop = stop.clone();
+    let cycle_progress = progress.clone();
     let cycle_sink = sink.clone();
     let cycle = std::thread::Builder::new()
         .name("actuatord-cycle".into())
         .spawn(move || {
-            let result = run_cycle(&mut bus, &mut node, settings, &cycle_stop, &cycle_sink);
+            let result = run_cycle(
+                &mut bus,
+                &mut node,
+                settings,
+                &cycle_stop,
+                &cycle_progress,
+                &cycle_sink,
+            );
             let _ = done_tx.send(());
             (result, node.counters())
         })?;
     drop(sink);
 
-    // Signals are handled off the real-time thread, on a small runtime of their own.
-    let runtime = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()?;
     runtime.block_on(async {
-        use tokio::signal::unix::{signal, SignalKind};
-        let mut term = signal(SignalKind::terminate())?;
-        let mut int = signal(SignalKind::interrupt())?;
-        tokio::select! {
-            _ = term.recv() => tracing::info!("SIGTERM: commanding the safe state and stopping"),
-            _ = int.recv() => tracing::info!("SIGINT: commanding the safe state and stopping"),
-            _ = done_rx => {}
+        // Ready once the first cycle has run: the bus works and the loop is live.
+        let mut poll = tokio::time::interval(std::time::Duration::from_millis(5));
+        while progress.load(Ordering::Relaxed) == 0 {
+            tokio::select! {
+                _ = poll.tick() => {}
+                _ = &mut done_rx => return anyhow::Ok(()),
+            }
         }
+        notify(&notifier, "READY=1\nSTATUS=cycle running");
+        // The watchdog is fed only while the cycle makes progress, so a stalled cycle gets the
+        // service restarted by systemd (WatchdogSec).
+        let watchdog = watchdog_interval();
+        let mut feed =
+            tokio::time::interval(watchdog.map_or(std::time::Duration::from_secs(3600), |w| w / 2));
+        let mut last_seen = 0;
+        loop {
+            tokio::select! {
+                _ = term.recv() => {
+                    tracing::info!("SIGTERM: commanding the safe state and stopping");
+                    break;
+                }
+                _ = int.recv() => {
+                    tracing::info!("SIGINT: commanding the safe state and stopping");
+                    break;
+                }
+                _ = &mut done_rx => break,
+                _ = feed.tick(), if watchdog.is_some() => {
+                    let now = progress.load(Ordering::Relaxed);
+                    if now != last_seen {
+                        notify(&notifier, "WATCHDOG=1");
+                        last_seen = now;
+                    } else {
+                        tracing::error!("the cycle made no progress: not feeding the watchdog");
+                    }
+                }
+            }
+        }
+        notify(&notifier, "STOPPING=1");
         anyhow::Ok(())
     })?;
     stop.store(true, Ordering::Relaxed);

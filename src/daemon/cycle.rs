@@ -6,7 +6,7 @@ use super::record::{Event, Record};
 use super::recorder::RecordSink;
 use super::rt;
 use crate::bus::{Bus, BusError, BusEvent, Frame};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 /// Frames handled before SYNC per cycle: about a period's worth of a saturated 1 Mbit/s bus at
@@ -198,11 +198,13 @@ impl<'a> CycleRunner<'a> {
 }
 
 /// Run the cycle until `stop` is set, `duration_s` has passed, or the bus fails.
+/// `progress` is set to the number of the cycle just run, for a watchdog outside the thread.
 pub fn run_cycle(
     bus: &mut dyn Bus,
     node: &mut ControllerNode,
     settings: CycleSettings,
     stop: &AtomicBool,
+    progress: &AtomicU64,
     sink: &RecordSink,
 ) -> Result<CycleReport, BusError> {
     let realtime =
@@ -233,6 +235,7 @@ pub fn run_cycle(
         rt::sleep_until_ns(runner.release_ns(k));
         let woke_ns = rt::monotonic_ns();
         let sent_ns = runner.run_once(k, woke_ns)?;
+        progress.store(k + 1, Ordering::Relaxed);
         // Overrun: the next release time has already passed. Skip the lost periods instead of
         // running a burst of late cycles.
         k += 1;

@@ -5,6 +5,7 @@ pub mod axis;
 pub mod config;
 pub mod cycle;
 pub mod node;
+pub mod notify;
 pub mod record;
 pub mod recorder;
 pub mod rt;

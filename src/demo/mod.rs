@@ -152,7 +152,14 @@ pub fn run(
         duration_s: Some(script.duration_s),
         record_frames: config.record.can_frames,
     };
-    let cycle = run_cycle(&mut daemon_bus, &mut controller, settings, &stop, &sink);
+    let cycle = run_cycle(
+        &mut daemon_bus,
+        &mut controller,
+        settings,
+        &stop,
+        &std::sync::atomic::AtomicU64::new(0),
+        &sink,
+    );
     stop.store(true, std::sync::atomic::Ordering::Relaxed);
     let records_dropped = sink.dropped();
     drop(sink);
