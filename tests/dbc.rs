@@ -3,8 +3,13 @@
 //! and every signal must come back as it went in.
 
 use actuatord::bus::Frame;
-use actuatord::canopen::{self, messages, CommandPdo, Emcy, FaultStatePdo, SensorPdo};
-use actuatord::supervise::{FaultFlags, FaultKind, FaultState};
+use actuatord::canopen::{
+    self, messages, CommandPdo, Emcy, FaultDiagnosisPdo, FaultStatePdo, SensorPdo, TunedGainsPdo,
+    TunedParametersPdo, SUPERVISED_FLAGGED, SUPERVISED_FLAG_NAMES, SYMPTOM_NAMES,
+};
+use actuatord::supervise::{
+    FaultFlags, FaultKind, FaultState, SupervisedFault, SupervisedFaults, Symptom,
+};
 use can_dbc::{ByteOrder, Dbc, MessageId, ValueType};
 use proptest::prelude::*;
 
@@ -94,7 +99,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(200))]
 
     #[test]
-    fn every_signal_round_trips_through_the_dbc(fractions in proptest::collection::vec(0.0f64..=1.0, 11)) {
+    fn every_signal_round_trips_through_the_dbc(fractions in proptest::collection::vec(0.0f64..=1.0, 19)) {
         let db = dbc();
         for m in messages::ALL {
             let values: Vec<f64> = m
@@ -125,7 +130,15 @@ proptest! {
         duty in -1.0f64..1.0,
         counter in 1u8..=240,
         flags in 0u16..256,
-        state in 0u8..3,
+        state in 0u8..4,
+        diagnosed in 0usize..8,
+        supervised in 0u16..64,
+        symptoms in proptest::collection::vec(0usize..3, 6),
+        confidence in 0.0f64..=1.0,
+        x4 in -0.01f64..0.01,
+        gain in 0.0f64..8000.0,
+        drive_gain in 0.0f64..0.4,
+        comp in 0.0f64..4.0,
     ) {
         let db = dbc();
         let s = SensorPdo { position, current_a: current, supply_voltage_v: supply };
@@ -144,19 +157,88 @@ proptest! {
             axis_node_id: ACTUATOR,
             state: FaultState::from_code(state).expect("valid state"),
             flags: FaultFlags(flags),
+            diagnosed_fault: diagnosed.checked_sub(1).map(|i| SupervisedFault::ALL[i]),
             following_error: position,
         };
         let f = fs.encode(CONTROLLER);
         prop_assert_eq!(dbc_decode(&db, &f, "fault_state"), f64::from(state));
         prop_assert!((dbc_decode(&db, &f, "following_error") - position).abs() <= 0.5e-7);
+        prop_assert_eq!(dbc_decode(&db, &f, "diagnosed_fault"), diagnosed as f64);
         for kind in FaultKind::ALL {
             let bit = dbc_decode(&db, &f, &format!("fault_{}", kind.name()));
             prop_assert_eq!(bit == 1.0, FaultFlags(flags).contains(kind));
         }
 
-        let e = Emcy::raised(ACTUATOR, FaultKind::FollowingError, FaultFlags(flags));
+        // Supervised-fault bits, in the order of SUPERVISED_FLAGGED.
+        let mut latched = SupervisedFaults::default();
+        for (i, fault) in SUPERVISED_FLAGGED.iter().enumerate() {
+            if supervised & (1 << i) != 0 {
+                latched.insert(*fault);
+            }
+        }
+        let e = Emcy::raised(ACTUATOR, FaultKind::FollowingError, FaultFlags(flags))
+            .with_supervision(fs.state, fs.diagnosed_fault, latched);
         let f = e.encode(CONTROLLER);
         prop_assert_eq!(dbc_decode(&db, &f, "emcy_error_code"), f64::from(e.error_code));
         prop_assert_eq!(dbc_decode(&db, &f, "axis_node_id"), f64::from(ACTUATOR));
+        prop_assert_eq!(dbc_decode(&db, &f, "fault_state"), f64::from(state));
+        prop_assert_eq!(dbc_decode(&db, &f, "diagnosed_fault"), diagnosed as f64);
+        for (i, name) in SUPERVISED_FLAG_NAMES.iter().enumerate() {
+            prop_assert_eq!(dbc_decode(&db, &f, name) == 1.0, supervised & (1 << i) != 0);
+        }
+
+        let sym = [Symptom::Minus, Symptom::Zero, Symptom::Plus];
+        let d = FaultDiagnosisPdo {
+            axis_node_id: ACTUATOR,
+            confidence,
+            nominal_learned: flags & 1 != 0,
+            latched,
+            observer_learned: flags & 2 != 0,
+            symptoms: [0, 1, 2, 3, 4, 5].map(|i| sym[symptoms[i]]),
+            observer_x4_pos: x4,
+            observer_x4_neg: -x4,
+        };
+        let f = d.encode(CONTROLLER);
+        prop_assert!((dbc_decode(&db, &f, "diagnosis_confidence") - confidence).abs() <= 0.005);
+        prop_assert_eq!(dbc_decode(&db, &f, "nominal_learned") == 1.0, flags & 1 != 0);
+        prop_assert_eq!(dbc_decode(&db, &f, "observer_learned") == 1.0, flags & 2 != 0);
+        for (i, name) in SUPERVISED_FLAG_NAMES.iter().enumerate() {
+            prop_assert_eq!(dbc_decode(&db, &f, name) == 1.0, supervised & (1 << i) != 0);
+        }
+        for (i, name) in SYMPTOM_NAMES.iter().enumerate() {
+            prop_assert_eq!(dbc_decode(&db, &f, name), symptoms[i] as f64 - 1.0);
+        }
+        prop_assert!((dbc_decode(&db, &f, "observer_x4_pos") - x4).abs() <= 2.5e-6);
+        prop_assert!((dbc_decode(&db, &f, "observer_x4_neg") + x4).abs() <= 2.5e-6);
+
+        let t = TunedParametersPdo {
+            axis_node_id: ACTUATOR,
+            friction_compensation_v: voltage,
+            gain_schedule_factor: confidence * 2.0,
+            friction_compensation_pos_v: comp,
+            friction_compensation_neg_v: 4.0 - comp,
+        };
+        let f = t.encode(CONTROLLER);
+        prop_assert!((dbc_decode(&db, &f, "friction_compensation") - voltage).abs() <= 0.5e-3);
+        prop_assert!((dbc_decode(&db, &f, "gain_schedule_factor") - confidence * 2.0).abs() <= 0.5e-3);
+        prop_assert!((dbc_decode(&db, &f, "friction_compensation_pos") - comp).abs() <= 0.5e-3);
+        prop_assert!((dbc_decode(&db, &f, "friction_compensation_neg") - (4.0 - comp)).abs() <= 0.5e-3);
+
+        let g = TunedGainsPdo {
+            axis_node_id: ACTUATOR,
+            gain_down_per_m: gain,
+            gain_up_per_m: 8000.0 - gain,
+            drive_gain_down_m_per_s: drive_gain,
+            drive_gain_up_m_per_s: 0.4 - drive_gain,
+            adapted_down: flags & 1 != 0,
+            adapted_up: flags & 2 != 0,
+        };
+        let f = g.encode(CONTROLLER);
+        prop_assert!((dbc_decode(&db, &f, "gain_down") - gain).abs() <= 0.25);
+        prop_assert!((dbc_decode(&db, &f, "gain_up") - (8000.0 - gain)).abs() <= 0.25);
+        prop_assert!((dbc_decode(&db, &f, "drive_gain_down") - drive_gain).abs() <= 0.5e-4);
+        prop_assert!((dbc_decode(&db, &f, "drive_gain_up") - (0.4 - drive_gain)).abs() <= 0.5e-4);
+        prop_assert_eq!(dbc_decode(&db, &f, "gain_source_down") == 1.0, flags & 1 != 0);
+        prop_assert_eq!(dbc_decode(&db, &f, "gain_source_up") == 1.0, flags & 2 != 0);
     }
 }

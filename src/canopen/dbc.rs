@@ -4,7 +4,7 @@ use super::messages::{Message, ALL, NODE_ACTUATOR, NODE_AUTOMATION, NODE_CONTROL
 use std::fmt::Write;
 
 /// Value tables for signals whose raw values are states.
-const VALUE_TABLES: [(&str, &[(u32, &str)]); 3] = [
+const VALUE_TABLES: [(&str, &[(u32, &str)]); 4] = [
     (
         "nmt_command",
         &[
@@ -24,7 +24,28 @@ const VALUE_TABLES: [(&str, &[(u32, &str)]); 3] = [
             (127, "pre_operational"),
         ],
     ),
-    ("fault_state", &[(0, "ok"), (1, "warning"), (2, "fault")]),
+    (
+        "fault_state",
+        &[
+            (0, "ok"),
+            (1, "warning"),
+            (2, "fail_safe"),
+            (3, "maintenance_requested"),
+        ],
+    ),
+    (
+        "diagnosed_fault",
+        &[
+            (0, "none"),
+            (1, "spring_pretension"),
+            (2, "spring_stiffness"),
+            (3, "friction_increase"),
+            (4, "current_gain"),
+            (5, "observer_friction"),
+            (6, "estimator_implausible"),
+            (7, "limit_violation"),
+        ],
+    ),
 ];
 
 /// The DBC text for a controller with node id `controller_node` and one actuator node.

@@ -2,8 +2,11 @@
 
 use super::codec::{pack, unpack, DecodeError};
 use super::messages::EMCY;
+use super::pdo::{
+    diagnosed_fault_code, diagnosed_fault_from_code, supervised_from, supervised_values,
+};
 use crate::bus::Frame;
-use crate::supervise::{FaultFlags, FaultKind};
+use crate::supervise::{FaultFlags, FaultKind, FaultState, SupervisedFault, SupervisedFaults};
 
 /// CiA 301 "error reset or no error".
 pub const ERROR_RESET: u16 = 0x0000;
@@ -20,6 +23,20 @@ pub fn error_code(kind: FaultKind) -> u16 {
         FaultKind::SensorTimeout => 0x8100,
         FaultKind::HeartbeatLost => 0x8130,
         FaultKind::NodeState => 0x8140,
+    }
+}
+
+/// The error code announced for a latched supervised fault: manufacturer-specific range, one code
+/// per fault; a limit violation is announced with the limit's own code instead.
+pub fn supervised_error_code(fault: SupervisedFault) -> u16 {
+    match fault {
+        SupervisedFault::SpringPretension => 0xFF11,
+        SupervisedFault::SpringStiffness => 0xFF12,
+        SupervisedFault::FrictionIncrease => 0xFF13,
+        SupervisedFault::CurrentGain => 0xFF14,
+        SupervisedFault::ObserverFriction => 0xFF15,
+        SupervisedFault::EstimatorImplausible => 0xFF16,
+        SupervisedFault::LimitViolation => 0xFF17,
     }
 }
 
@@ -48,6 +65,12 @@ pub struct Emcy {
     pub axis_node_id: u8,
     /// Every fault active on the axis when the frame was sent.
     pub flags: FaultFlags,
+    /// The axis' fault state after the event.
+    pub state: FaultState,
+    /// The latest latched supervised fault after the event.
+    pub diagnosed_fault: Option<SupervisedFault>,
+    /// Latched supervised faults after the event.
+    pub supervised: SupervisedFaults,
 }
 
 impl Emcy {
@@ -58,7 +81,33 @@ impl Emcy {
             error_register: error_register(flags),
             axis_node_id,
             flags,
+            ..Default::default()
         }
+    }
+
+    /// The EMCY for a newly latched supervised fault (a model-based diagnosis or the observer).
+    pub fn supervised(axis_node_id: u8, fault: SupervisedFault, flags: FaultFlags) -> Self {
+        Self {
+            error_code: supervised_error_code(fault),
+            // Generic error, plus "manufacturer specific" (bit 7) for the model-based findings.
+            error_register: error_register(flags) | 0x81,
+            axis_node_id,
+            flags,
+            ..Default::default()
+        }
+    }
+
+    /// The same EMCY with the supervision's state after the event.
+    pub fn with_supervision(
+        mut self,
+        state: FaultState,
+        diagnosed_fault: Option<SupervisedFault>,
+        supervised: SupervisedFaults,
+    ) -> Self {
+        self.state = state;
+        self.diagnosed_fault = diagnosed_fault;
+        self.supervised = supervised;
+        self
     }
 
     /// The EMCY announcing that an axis' faults were reset.
@@ -67,34 +116,47 @@ impl Emcy {
             error_code: ERROR_RESET,
             error_register: 0,
             axis_node_id,
-            flags: FaultFlags::default(),
+            ..Default::default()
         }
     }
 
     pub fn encode(&self, controller_node: u8) -> Frame {
-        let mut values = [0.0; 11];
+        let mut values = [0.0; 19];
         values[0] = f64::from(self.error_code);
         values[1] = f64::from(self.error_register);
         values[2] = f64::from(self.axis_node_id);
-        for (slot, kind) in values[3..].iter_mut().zip(FaultKind::ALL) {
+        for (slot, kind) in values[3..11].iter_mut().zip(FaultKind::ALL) {
             *slot = if self.flags.contains(kind) { 1.0 } else { 0.0 };
         }
+        values[11] = f64::from(self.state.code());
+        values[12] = f64::from(diagnosed_fault_code(self.diagnosed_fault));
+        values[13..].copy_from_slice(&supervised_values(self.supervised));
         pack(&EMCY, controller_node, &values).0
     }
 
     pub fn decode(frame: &Frame) -> Result<Self, DecodeError> {
-        let v: [f64; 11] = unpack(&EMCY, frame)?;
+        let v: [f64; 19] = unpack(&EMCY, frame)?;
         let mut flags = FaultFlags::default();
-        for (value, kind) in v[3..].iter().zip(FaultKind::ALL) {
+        for (value, kind) in v[3..11].iter().zip(FaultKind::ALL) {
             if *value != 0.0 {
                 flags.insert(kind);
             }
         }
+        let bad = |signal: &'static str, value: f64| DecodeError::BadValue {
+            name: EMCY.name,
+            id: frame.id(),
+            signal,
+            value: value as i64,
+        };
         Ok(Self {
             error_code: v[0] as u16,
             error_register: v[1] as u8,
             axis_node_id: v[2] as u8,
             flags,
+            state: FaultState::from_code(v[11] as u8).ok_or_else(|| bad("fault_state", v[11]))?,
+            diagnosed_fault: diagnosed_fault_from_code(v[12] as u8)
+                .ok_or_else(|| bad("diagnosed_fault", v[12]))?,
+            supervised: supervised_from(&v[13..19]),
         })
     }
 }
@@ -116,6 +178,36 @@ mod tests {
         assert_eq!(
             Emcy::decode(&Emcy::reset(0x10).encode(1)).map(|e| e.error_code),
             Ok(0)
+        );
+    }
+
+    #[test]
+    fn supervised_emcy_carries_state_and_diagnosis() {
+        let mut latched = SupervisedFaults::default();
+        latched.insert(SupervisedFault::SpringStiffness);
+        let e = Emcy::supervised(
+            0x10,
+            SupervisedFault::SpringStiffness,
+            FaultFlags::default(),
+        )
+        .with_supervision(
+            FaultState::MaintenanceRequested,
+            Some(SupervisedFault::SpringStiffness),
+            latched,
+        );
+        let d = Emcy::decode(&e.encode(1)).expect("decodes");
+        assert_eq!(d, e);
+        assert_eq!(d.error_code, 0xFF12);
+        let mut codes: Vec<_> = SupervisedFault::ALL
+            .iter()
+            .map(|f| supervised_error_code(*f))
+            .chain(FaultKind::ALL.iter().map(|k| error_code(*k)))
+            .collect();
+        codes.sort_unstable();
+        codes.dedup();
+        assert_eq!(
+            codes.len(),
+            SupervisedFault::ALL.len() + FaultKind::ALL.len()
         );
     }
 

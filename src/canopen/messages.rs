@@ -61,6 +61,27 @@ pub const FAULT_FLAG_NAMES: [&str; 8] = [
     "fault_node_state",
 ];
 
+/// Signal names of the supervised-fault flags, bit 0 first: `fault_` and the name of
+/// `supervise::SupervisedFault` (without `limit_violation`, which the fault flags above detail).
+pub const SUPERVISED_FLAG_NAMES: [&str; 6] = [
+    "fault_spring_pretension",
+    "fault_spring_stiffness",
+    "fault_friction_increase",
+    "fault_current_gain",
+    "fault_observer_friction",
+    "fault_estimator_implausible",
+];
+
+/// Signal names of the symptoms, in the order of `supervise::PHYSICAL_NAMES`.
+pub const SYMPTOM_NAMES: [&str; 6] = [
+    "symptom_current_time_constant",
+    "symptom_damping_ratio",
+    "symptom_natural_frequency",
+    "symptom_static_gain",
+    "symptom_coulomb_friction",
+    "symptom_pretension",
+];
+
 const fn flag(bit: u16, name: &'static str, comment: &'static str) -> Signal {
     Signal::raw(name, bit, 1, comment)
 }
@@ -132,6 +153,66 @@ macro_rules! fault_flags {
             ),
         ]
     };
+}
+
+/// Supervised-fault flag signals starting at `base`, in [`SUPERVISED_FLAG_NAMES`] order.
+macro_rules! supervised_flags {
+    ($base:expr) => {
+        [
+            flag(
+                $base,
+                "fault_spring_pretension",
+                "F1 diagnosed and latched: spring pretension too high",
+            ),
+            flag(
+                $base + 1,
+                "fault_spring_stiffness",
+                "F2 diagnosed and latched: spring constant dropped",
+            ),
+            flag(
+                $base + 2,
+                "fault_friction_increase",
+                "F3 diagnosed and latched: friction increased",
+            ),
+            flag(
+                $base + 3,
+                "fault_current_gain",
+                "F4 diagnosed and latched: current circuit gain dropped",
+            ),
+            flag(
+                $base + 4,
+                "fault_observer_friction",
+                "observer x4+ below and x4- above their learned bands: friction rise",
+            ),
+            flag(
+                $base + 5,
+                "fault_estimator_implausible",
+                "drive-gain estimate implausible, scheduled gains in use",
+            ),
+        ]
+    };
+}
+
+const STATE_COMMENT: &str =
+    "0 ok, 1 warning (limit exceeded not yet latched, or a warning latched), \
+2 fail_safe (latched, axis in safe state), 3 maintenance_requested (latched, axis keeps working)";
+
+const DIAGNOSED_COMMENT: &str =
+    "latest latched supervised fault: 0 none, 1 spring_pretension (F1), \
+2 spring_stiffness (F2), 3 friction_increase (F3), 4 current_gain (F4), 5 observer_friction, \
+6 estimator_implausible, 7 limit_violation";
+
+const fn symptom(name: &'static str, start_bit: u16, comment: &'static str) -> Signal {
+    Signal {
+        name,
+        start_bit,
+        bits: 2,
+        signed: true,
+        factor: 1.0,
+        offset: 0.0,
+        unit: "",
+        comment,
+    }
 }
 
 const SYNC_SIGNALS: [Signal; 1] = [Signal::raw(
@@ -237,18 +318,101 @@ const FAULT_RESET_SIGNALS: [Signal; 1] = [Signal::raw(
     "node id of the axis to reset, 0 = all axes",
 )];
 
-const FAULT_STATE_SIGNALS: [Signal; 11] = {
+const FAULT_STATE_SIGNALS: [Signal; 12] = {
     let f = fault_flags!(16);
     [
         Signal::raw("axis_node_id", 0, 8, "node id of the axis' actuator node"),
-        Signal::raw("fault_state", 8, 8, "0 ok, 1 warning (limit exceeded, not yet latched), 2 fault (latched, axis in safe state)"),
-        f[0], f[1], f[2], f[3], f[4], f[5], f[6], f[7],
-        scaled("following_error", 32, 32, true, 1e-7, "m", "setpoint - position"),
+        Signal::raw("fault_state", 8, 8, STATE_COMMENT),
+        f[0],
+        f[1],
+        f[2],
+        f[3],
+        f[4],
+        f[5],
+        f[6],
+        f[7],
+        Signal::raw("diagnosed_fault", 24, 8, DIAGNOSED_COMMENT),
+        scaled(
+            "following_error",
+            32,
+            32,
+            true,
+            1e-7,
+            "m",
+            "setpoint - position",
+        ),
     ]
 };
 
-const EMCY_SIGNALS: [Signal; 11] = {
+const FAULT_DIAGNOSIS_SIGNALS: [Signal; 18] = {
+    let f = supervised_flags!(16);
+    [
+        Signal::raw("axis_node_id", 0, 8, "node id of the axis' actuator node"),
+        scaled(
+            "diagnosis_confidence",
+            8,
+            7,
+            false,
+            0.01,
+            "",
+            "confidence of diagnosed_fault: 1 - differing symptoms / 6 for F1-F4, 1 otherwise",
+        ),
+        Signal::raw(
+            "nominal_learned",
+            15,
+            1,
+            "nominal physical parameters known (configured or learned)",
+        ),
+        f[0],
+        f[1],
+        f[2],
+        f[3],
+        f[4],
+        f[5],
+        Signal::raw(
+            "observer_learned",
+            22,
+            1,
+            "observer x4 bands of both directions learned",
+        ),
+        symptom(
+            "symptom_current_time_constant",
+            24,
+            "T_I vs nominal: -1 below, 0 within, +1 above its threshold",
+        ),
+        symptom("symptom_damping_ratio", 26, "D vs nominal: -1, 0, +1"),
+        symptom(
+            "symptom_natural_frequency",
+            28,
+            "omega0 vs nominal: -1, 0, +1",
+        ),
+        symptom("symptom_static_gain", 30, "K_P vs nominal: -1, 0, +1"),
+        symptom("symptom_coulomb_friction", 32, "F_C vs nominal: -1, 0, +1"),
+        symptom("symptom_pretension", 34, "F_0 vs nominal: -1, 0, +1"),
+        scaled(
+            "observer_x4_pos",
+            40,
+            12,
+            true,
+            5e-6,
+            "m",
+            "observer disturbance state x4, smoothed, moving in +",
+        ),
+        scaled(
+            "observer_x4_neg",
+            52,
+            12,
+            true,
+            5e-6,
+            "m",
+            "observer disturbance state x4, smoothed, moving in -",
+        ),
+    ]
+};
+
+const EMCY_SIGNALS: [Signal; 19] = {
     let f = fault_flags!(32);
+    let g = supervised_flags!(56);
     [
         Signal::raw(
             "emcy_error_code",
@@ -271,10 +435,18 @@ const EMCY_SIGNALS: [Signal; 11] = {
         f[5],
         f[6],
         f[7],
+        Signal::raw("fault_state", 40, 8, STATE_COMMENT),
+        Signal::raw("diagnosed_fault", 48, 8, DIAGNOSED_COMMENT),
+        g[0],
+        g[1],
+        g[2],
+        g[3],
+        g[4],
+        g[5],
     ]
 };
 
-const TUNED_PARAMETER_SIGNALS: [Signal; 3] = [
+const TUNED_PARAMETER_SIGNALS: [Signal; 5] = [
     Signal::raw("axis_node_id", 0, 8, "node id of the axis' actuator node"),
     scaled(
         "friction_compensation",
@@ -294,6 +466,71 @@ const TUNED_PARAMETER_SIGNALS: [Signal; 3] = [
         "",
         "controller gain factor from the supply schedule",
     ),
+    scaled(
+        "friction_compensation_pos",
+        40,
+        12,
+        false,
+        1e-3,
+        "V",
+        "friction compensation for motion in + (U_comp+), learned or feed-forward",
+    ),
+    scaled(
+        "friction_compensation_neg",
+        52,
+        12,
+        false,
+        1e-3,
+        "V",
+        "friction compensation for motion in - (U_comp-), learned or feed-forward",
+    ),
+];
+
+const TUNED_GAIN_SIGNALS: [Signal; 7] = [
+    Signal::raw("axis_node_id", 0, 8, "node id of the axis' actuator node"),
+    scaled(
+        "gain_down",
+        8,
+        14,
+        false,
+        0.5,
+        "1/m",
+        "direction P gain q01 in use (duty per m of error, error < 0)",
+    ),
+    scaled(
+        "gain_up",
+        22,
+        14,
+        false,
+        0.5,
+        "1/m",
+        "direction P gain q02 in use (duty per m of error, error > 0)",
+    ),
+    scaled(
+        "drive_gain_down",
+        36,
+        12,
+        false,
+        1e-4,
+        "m/s",
+        "estimated drive gain K_I1 (valve to low pressure, moving down)",
+    ),
+    scaled(
+        "drive_gain_up",
+        48,
+        12,
+        false,
+        1e-4,
+        "m/s",
+        "estimated drive gain K_I2 (valve to atmosphere, moving up)",
+    ),
+    Signal::raw(
+        "gain_source_down",
+        60,
+        1,
+        "0 scheduled, 1 adapted (estimate valid and plausible)",
+    ),
+    Signal::raw("gain_source_up", 61, 1, "0 scheduled, 1 adapted"),
 ];
 
 const LOOP_STATUS_SIGNALS: [Signal; 4] = [
@@ -401,9 +638,29 @@ pub const TUNED_PARAMETERS: Message = Message {
     function_code: 0x280,
     id_base: IdBase::Controller,
     transmitter: NODE_CONTROLLER,
-    dlc: 5,
+    dlc: 8,
     signals: &TUNED_PARAMETER_SIGNALS,
     comment: "TPDO2 of the controller: parameters the axis is running with, every status period",
+};
+
+pub const FAULT_DIAGNOSIS: Message = Message {
+    name: "fault_diagnosis",
+    function_code: 0x400,
+    id_base: IdBase::Controller,
+    transmitter: NODE_CONTROLLER,
+    dlc: 8,
+    signals: &FAULT_DIAGNOSIS_SIGNALS,
+    comment: "controller: confidence, latched supervised faults, symptoms and observer x4 of one axis, with every fault_state frame",
+};
+
+pub const TUNED_GAINS: Message = Message {
+    name: "tuned_gains",
+    function_code: 0x480,
+    id_base: IdBase::Controller,
+    transmitter: NODE_CONTROLLER,
+    dlc: 8,
+    signals: &TUNED_GAIN_SIGNALS,
+    comment: "TPDO4 of the controller: direction P gains and estimated drive gains of a duty axis, every status period",
 };
 
 pub const LOOP_STATUS: Message = Message {
@@ -457,7 +714,7 @@ pub const HEARTBEAT_ACTUATOR: Message = Message {
 };
 
 /// Every frame, for the DBC and for tests.
-pub const ALL: [&Message; 13] = [
+pub const ALL: [&Message; 15] = [
     &NMT,
     &SYNC,
     &EMCY,
@@ -466,6 +723,8 @@ pub const ALL: [&Message; 13] = [
     &COMMAND,
     &FAULT_STATE,
     &TUNED_PARAMETERS,
+    &FAULT_DIAGNOSIS,
+    &TUNED_GAINS,
     &LOOP_STATUS,
     &SETPOINT,
     &FAULT_RESET,

@@ -18,16 +18,17 @@ mod signal;
 
 pub use codec::{check_length, pack, unpack, DecodeError};
 pub use eds::{render_eds, EdsInfo};
-pub use emcy::{error_code, error_register, Emcy, ERROR_RESET};
-pub use messages::{Message, FAULT_FLAG_NAMES};
+pub use emcy::{error_code, error_register, supervised_error_code, Emcy, ERROR_RESET};
+pub use messages::{Message, FAULT_FLAG_NAMES, SUPERVISED_FLAG_NAMES, SYMPTOM_NAMES};
 pub use nmt::{
     decode_heartbeat, decode_sync, encode_heartbeat, is_heartbeat, NmtCommand, NmtState,
     SyncCounter,
 };
 pub use od::{DataType, ObjectDictionary, ObjectId, Value};
 pub use pdo::{
-    CommandPdo, FaultResetPdo, FaultStatePdo, LoopStatusPdo, SensorPdo, SetpointPdo,
-    SupplyPressurePdo, TunedParametersPdo,
+    diagnosed_fault_code, diagnosed_fault_from_code, CommandPdo, FaultDiagnosisPdo, FaultResetPdo,
+    FaultStatePdo, LoopStatusPdo, SensorPdo, SetpointPdo, SupplyPressurePdo, TunedGainsPdo,
+    TunedParametersPdo, SUPERVISED_FLAGGED,
 };
 pub use sdo::{AbortCode, SdoClient, SdoServer};
 pub use signal::Signal;

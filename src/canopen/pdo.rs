@@ -2,11 +2,72 @@
 
 use super::codec::{pack, unpack, DecodeError};
 use super::messages::{
-    Message, COMMAND, FAULT_RESET, FAULT_STATE, LOOP_STATUS, SENSOR, SETPOINT, SUPPLY_PRESSURE,
-    TUNED_PARAMETERS,
+    Message, COMMAND, FAULT_DIAGNOSIS, FAULT_RESET, FAULT_STATE, LOOP_STATUS, SENSOR, SETPOINT,
+    SUPPLY_PRESSURE, TUNED_GAINS, TUNED_PARAMETERS,
 };
 use crate::bus::Frame;
-use crate::supervise::{FaultFlags, FaultKind, FaultState};
+use crate::supervise::{
+    FaultFlags, FaultKind, FaultState, SupervisedFault, SupervisedFaults, Symptom, PHYSICAL_PARAMS,
+};
+
+/// `diagnosed_fault` on the bus: 0 none, else the position in `SupervisedFault::ALL` plus one.
+pub fn diagnosed_fault_code(fault: Option<SupervisedFault>) -> u8 {
+    fault.map_or(0, |f| f as u8 + 1)
+}
+
+/// The inverse of [`diagnosed_fault_code`]; `None` inside `Some` is "no fault", outer `None` an
+/// unknown code.
+pub fn diagnosed_fault_from_code(code: u8) -> Option<Option<SupervisedFault>> {
+    match code {
+        0 => Some(None),
+        c => SupervisedFault::ALL
+            .get(usize::from(c) - 1)
+            .map(|f| Some(*f)),
+    }
+}
+
+/// The supervised faults with a flag of their own on the bus (limit violations are detailed by
+/// the limit fault flags).
+pub const SUPERVISED_FLAGGED: [SupervisedFault; 6] = [
+    SupervisedFault::SpringPretension,
+    SupervisedFault::SpringStiffness,
+    SupervisedFault::FrictionIncrease,
+    SupervisedFault::CurrentGain,
+    SupervisedFault::ObserverFriction,
+    SupervisedFault::EstimatorImplausible,
+];
+
+pub(crate) fn supervised_values(faults: SupervisedFaults) -> [f64; 6] {
+    SUPERVISED_FLAGGED.map(|f| if faults.contains(f) { 1.0 } else { 0.0 })
+}
+
+pub(crate) fn supervised_from(values: &[f64]) -> SupervisedFaults {
+    let mut faults = SupervisedFaults::default();
+    for (f, v) in SUPERVISED_FLAGGED.iter().zip(values) {
+        if *v != 0.0 {
+            faults.insert(*f);
+        }
+    }
+    faults
+}
+
+fn symptom_value(s: Symptom) -> f64 {
+    match s {
+        Symptom::Minus => -1.0,
+        Symptom::Zero => 0.0,
+        Symptom::Plus => 1.0,
+    }
+}
+
+fn symptom_from(v: f64) -> Symptom {
+    if v < 0.0 {
+        Symptom::Minus
+    } else if v > 0.0 {
+        Symptom::Plus
+    } else {
+        Symptom::Zero
+    }
+}
 
 /// Sensor data from the actuator node (TPDO1 of the actuator).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -141,6 +202,8 @@ pub struct FaultStatePdo {
     pub axis_node_id: u8,
     pub state: FaultState,
     pub flags: FaultFlags,
+    /// The latest latched supervised fault, `None` when nothing is latched.
+    pub diagnosed_fault: Option<SupervisedFault>,
     /// setpoint - position, m
     pub following_error: f64,
 }
@@ -185,6 +248,7 @@ impl FaultStatePdo {
                 f[5],
                 f[6],
                 f[7],
+                f64::from(diagnosed_fault_code(self.diagnosed_fault)),
                 self.following_error,
             ],
         )
@@ -192,14 +256,17 @@ impl FaultStatePdo {
     }
 
     pub fn decode(frame: &Frame) -> Result<Self, DecodeError> {
-        let v: [f64; 11] = unpack(&FAULT_STATE, frame)?;
+        let v: [f64; 12] = unpack(&FAULT_STATE, frame)?;
         let state = FaultState::from_code(v[1] as u8)
             .ok_or_else(|| bad_value(&FAULT_STATE, frame, "fault_state", v[1]))?;
+        let diagnosed_fault = diagnosed_fault_from_code(v[10] as u8)
+            .ok_or_else(|| bad_value(&FAULT_STATE, frame, "diagnosed_fault", v[10]))?;
         Ok(Self {
             axis_node_id: v[0] as u8,
             state,
             flags: flags_from(&v[2..10]),
-            following_error: v[10],
+            diagnosed_fault,
+            following_error: v[11],
         })
     }
 }
@@ -208,8 +275,12 @@ impl FaultStatePdo {
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct TunedParametersPdo {
     pub axis_node_id: u8,
+    /// Compensation applied this cycle, V.
     pub friction_compensation_v: f64,
     pub gain_schedule_factor: f64,
+    /// `U_comp+`, `U_comp-` (learned, or the feed-forward values), V.
+    pub friction_compensation_pos_v: f64,
+    pub friction_compensation_neg_v: f64,
 }
 
 impl TunedParametersPdo {
@@ -221,18 +292,147 @@ impl TunedParametersPdo {
                 f64::from(self.axis_node_id),
                 self.friction_compensation_v,
                 self.gain_schedule_factor,
+                self.friction_compensation_pos_v,
+                self.friction_compensation_neg_v,
             ],
         )
         .0
     }
 
     pub fn decode(frame: &Frame) -> Result<Self, DecodeError> {
-        let [axis, friction_compensation_v, gain_schedule_factor] =
+        let [axis, friction_compensation_v, gain_schedule_factor, pos, neg] =
             unpack(&TUNED_PARAMETERS, frame)?;
         Ok(Self {
             axis_node_id: axis as u8,
             friction_compensation_v,
             gain_schedule_factor,
+            friction_compensation_pos_v: pos,
+            friction_compensation_neg_v: neg,
+        })
+    }
+}
+
+/// Direction P gains and drive-gain estimates of a duty axis (TPDO4 of the controller).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TunedGainsPdo {
+    pub axis_node_id: u8,
+    /// `q01`, `q02` in use, duty per m.
+    pub gain_down_per_m: f64,
+    pub gain_up_per_m: f64,
+    /// Estimated `K_I1`, `K_I2`, m/s.
+    pub drive_gain_down_m_per_s: f64,
+    pub drive_gain_up_m_per_s: f64,
+    /// The gain in use comes from the estimate (true) or the schedule (false).
+    pub adapted_down: bool,
+    pub adapted_up: bool,
+}
+
+impl TunedGainsPdo {
+    pub fn encode(&self, controller_node: u8) -> Frame {
+        let bit = |b: bool| if b { 1.0 } else { 0.0 };
+        pack(
+            &TUNED_GAINS,
+            controller_node,
+            &[
+                f64::from(self.axis_node_id),
+                self.gain_down_per_m,
+                self.gain_up_per_m,
+                self.drive_gain_down_m_per_s,
+                self.drive_gain_up_m_per_s,
+                bit(self.adapted_down),
+                bit(self.adapted_up),
+            ],
+        )
+        .0
+    }
+
+    pub fn decode(frame: &Frame) -> Result<Self, DecodeError> {
+        let [axis, gd, gu, kd, ku, ad, au] = unpack(&TUNED_GAINS, frame)?;
+        Ok(Self {
+            axis_node_id: axis as u8,
+            gain_down_per_m: gd,
+            gain_up_per_m: gu,
+            drive_gain_down_m_per_s: kd,
+            drive_gain_up_m_per_s: ku,
+            adapted_down: ad != 0.0,
+            adapted_up: au != 0.0,
+        })
+    }
+}
+
+/// What the model-based supervision of one axis sees (sent with every fault_state frame).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct FaultDiagnosisPdo {
+    pub axis_node_id: u8,
+    /// Confidence of the diagnosed fault of the fault_state frame, 0..1.
+    pub confidence: f64,
+    pub nominal_learned: bool,
+    /// Latched supervised faults (limit violations are in the fault_state flags).
+    pub latched: SupervisedFaults,
+    pub observer_learned: bool,
+    /// Symptoms over `[T_I, D, ω0, K_P, F_C, F_0]` of the last estimation window.
+    pub symptoms: [Symptom; PHYSICAL_PARAMS],
+    /// Smoothed observer `x4` per direction, m.
+    pub observer_x4_pos: f64,
+    pub observer_x4_neg: f64,
+}
+
+impl FaultDiagnosisPdo {
+    pub fn encode(&self, controller_node: u8) -> Frame {
+        let bit = |b: bool| if b { 1.0 } else { 0.0 };
+        let g = supervised_values(self.latched);
+        let y = self.symptoms.map(symptom_value);
+        pack(
+            &FAULT_DIAGNOSIS,
+            controller_node,
+            &[
+                f64::from(self.axis_node_id),
+                self.confidence,
+                bit(self.nominal_learned),
+                g[0],
+                g[1],
+                g[2],
+                g[3],
+                g[4],
+                g[5],
+                bit(self.observer_learned),
+                y[0],
+                y[1],
+                y[2],
+                y[3],
+                y[4],
+                y[5],
+                // Not learned yet (NaN) goes out as 0, which the learned bit qualifies.
+                if self.observer_x4_pos.is_finite() {
+                    self.observer_x4_pos
+                } else {
+                    0.0
+                },
+                if self.observer_x4_neg.is_finite() {
+                    self.observer_x4_neg
+                } else {
+                    0.0
+                },
+            ],
+        )
+        .0
+    }
+
+    pub fn decode(frame: &Frame) -> Result<Self, DecodeError> {
+        let v: [f64; 18] = unpack(&FAULT_DIAGNOSIS, frame)?;
+        let mut symptoms = [Symptom::Zero; PHYSICAL_PARAMS];
+        for (s, x) in symptoms.iter_mut().zip(&v[10..16]) {
+            *s = symptom_from(*x);
+        }
+        Ok(Self {
+            axis_node_id: v[0] as u8,
+            confidence: v[1],
+            nominal_learned: v[2] != 0.0,
+            latched: supervised_from(&v[3..9]),
+            observer_learned: v[9] != 0.0,
+            symptoms,
+            observer_x4_pos: v[16],
+            observer_x4_neg: v[17],
         })
     }
 }
@@ -311,11 +511,13 @@ mod tests {
                 axis_node_id: 0x10,
                 state: FaultState::Fault,
                 flags,
+                diagnosed_fault: Some(SupervisedFault::SpringStiffness),
                 following_error: -0.0021,
             };
             let d = FaultStatePdo::decode(&p.encode(1)).expect("decodes");
             assert_eq!(d.flags, flags);
             assert_eq!(d.state, FaultState::Fault);
+            assert_eq!(d.diagnosed_fault, Some(SupervisedFault::SpringStiffness));
             assert!((d.following_error + 0.0021).abs() < 1e-7);
         }
         let mut bad = FaultStatePdo::default().encode(1).data().to_vec();
@@ -328,6 +530,55 @@ mod tests {
                 ..
             })
         ));
+    }
+
+    #[test]
+    fn diagnosis_and_tuned_frames_round_trip_within_resolution() {
+        let mut latched = SupervisedFaults::default();
+        latched.insert(SupervisedFault::ObserverFriction);
+        latched.insert(SupervisedFault::SpringStiffness);
+        let d = FaultDiagnosisPdo {
+            axis_node_id: 16,
+            confidence: 5.0 / 6.0,
+            nominal_learned: true,
+            latched,
+            observer_learned: true,
+            symptoms: [
+                Symptom::Zero,
+                Symptom::Plus,
+                Symptom::Minus,
+                Symptom::Plus,
+                Symptom::Zero,
+                Symptom::Minus,
+            ],
+            observer_x4_pos: -1.94e-3,
+            observer_x4_neg: -1.70e-3,
+        };
+        let back = FaultDiagnosisPdo::decode(&d.encode(1)).expect("decodes");
+        assert_eq!(back.symptoms, d.symptoms);
+        assert_eq!(back.latched, latched);
+        assert!(back.nominal_learned && back.observer_learned);
+        assert!((back.confidence - d.confidence).abs() <= 0.005);
+        assert!((back.observer_x4_pos - d.observer_x4_pos).abs() <= 2.5e-6);
+        assert!((back.observer_x4_neg - d.observer_x4_neg).abs() <= 2.5e-6);
+        let g = TunedGainsPdo {
+            axis_node_id: 16,
+            gain_down_per_m: 1166.7,
+            gain_up_per_m: 1590.9,
+            drive_gain_down_m_per_s: 0.0301,
+            drive_gain_up_m_per_s: 0.0219,
+            adapted_down: true,
+            adapted_up: false,
+        };
+        let back = TunedGainsPdo::decode(&g.encode(1)).expect("decodes");
+        assert!((back.gain_down_per_m - g.gain_down_per_m).abs() <= 0.25);
+        assert!((back.drive_gain_up_m_per_s - g.drive_gain_up_m_per_s).abs() <= 0.5e-4);
+        assert!(back.adapted_down && !back.adapted_up);
+        assert_eq!(
+            diagnosed_fault_from_code(diagnosed_fault_code(Some(SupervisedFault::LimitViolation))),
+            Some(Some(SupervisedFault::LimitViolation))
+        );
+        assert_eq!(diagnosed_fault_from_code(8), None);
     }
 
     #[test]

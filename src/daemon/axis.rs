@@ -1,10 +1,86 @@
-//! One axis' pipeline per cycle: setpoint → controller + friction compensation → supervision
-//! → command. Sans-I/O: the node feeds it decoded frames and takes the command back.
+//! One axis' pipeline per cycle, in stages the node times separately:
+//! scheduling (setpoint, reference, gains from the measured supply) → estimation (parameter
+//! windows, diagnosis) → observer (x4 bands) → supervision (limit checks and model-based findings
+//! into the fault machine) → control (controller, static correction, friction compensation,
+//! dither; or the scheduled / adaptive direction P controller of a duty axis).
+//! Sans-I/O: the node feeds it decoded frames and takes the command back. Everything is built in
+//! [`Axis::new`]; the stages allocate nothing.
 
-use super::config::{cycles, AxisConfig, CommandKind, SetpointStep};
-use crate::canopen::{NmtState, SensorPdo};
-use crate::control::{ControllerError, DiscreteController, FrictionFeedForward};
-use crate::supervise::{Band, LimitSupervisor, Limits, SupervisionInput, SupervisionOutput};
+use super::config::{cycles, AxisConfig, CommandKind, ScheduleVariable, SetpointStep};
+use crate::canopen::{
+    Emcy, FaultDiagnosisPdo, FaultStatePdo, NmtState, SensorPdo, TunedGainsPdo, TunedParametersPdo,
+};
+use crate::control::{
+    AdaptiveFriction, ControllerError, DiscreteController, Dither, FrictionFeedForward,
+    GainSchedule, GainSource, NonlinearCorrection, ParamError, PneumaticAdaptive, PneumaticStep,
+};
+use crate::supervise::{
+    diagnose, symptoms, Band, DiagnosedFault, DisturbanceObserver, EstimatorHealth, FaultMachine,
+    FaultMachineOutput, FaultState, LimitSupervisor, Limits, ObserverOutput, ParameterEstimator,
+    PhysicalParameters, SupervisedFault, SupervisedFaults, SupervisionInput, SupervisionLevel,
+    SupervisionOutput, Symptom, PHYSICAL_PARAMS,
+};
+
+/// What the axis has learned or runs with this cycle (the tuned-parameter frames).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tuned {
+    /// `U_comp+`, `U_comp-`: learned by the adaptive friction compensation, or the feed-forward
+    /// values; command unit.
+    pub friction_compensation_pos: f64,
+    pub friction_compensation_neg: f64,
+    /// Factor on the controller gains from the supply schedule (1 without one).
+    pub gain_schedule_factor: f64,
+    /// Dither added this cycle, command unit.
+    pub dither: f64,
+    /// Direction P gains `q01`, `q02` in use (duty per m), 0 without a direction P controller.
+    pub gain_down_per_m: f64,
+    pub gain_up_per_m: f64,
+    /// Estimated `K_I1`, `K_I2` (m/s), 0 without one.
+    pub drive_gain_down_m_per_s: f64,
+    pub drive_gain_up_m_per_s: f64,
+    /// The gain in use comes from the estimate, not the schedule.
+    pub adapted_down: bool,
+    pub adapted_up: bool,
+    /// Smoothed observer `x4` per direction (m), NaN until the direction has been seen.
+    pub observer_x4_pos: f64,
+    pub observer_x4_neg: f64,
+    pub observer_learned: bool,
+}
+
+impl Default for Tuned {
+    fn default() -> Self {
+        Self {
+            friction_compensation_pos: 0.0,
+            friction_compensation_neg: 0.0,
+            gain_schedule_factor: 1.0,
+            dither: 0.0,
+            gain_down_per_m: 0.0,
+            gain_up_per_m: 0.0,
+            drive_gain_down_m_per_s: 0.0,
+            drive_gain_up_m_per_s: 0.0,
+            adapted_down: false,
+            adapted_up: false,
+            observer_x4_pos: f64::NAN,
+            observer_x4_neg: f64::NAN,
+            observer_learned: false,
+        }
+    }
+}
+
+/// What the model-based supervision decided this cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ModelSupervision {
+    pub machine: FaultMachineOutput,
+    /// The latest latched supervised fault, until reset.
+    pub diagnosed_fault: Option<SupervisedFault>,
+    /// Its confidence: the diagnosis' `1 - distance / 6` for F1-F4, 1 for the others.
+    pub confidence: f64,
+    /// Symptoms of the last estimation window compared with the nominal parameters.
+    pub symptoms: [Symptom; PHYSICAL_PARAMS],
+    pub nominal_learned: bool,
+    /// Physical parameters of the last usable estimation window.
+    pub estimate: Option<PhysicalParameters>,
+}
 
 /// What one axis decided in one cycle.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -19,7 +95,166 @@ pub struct AxisStep {
     pub sensor: SensorPdo,
     pub supply_pressure_pa: f64,
     pub sensor_fresh: bool,
+    /// Limit supervision; its `state` is the published state (limits and fault machine).
     pub supervision: SupervisionOutput,
+    pub model: ModelSupervision,
+    pub tuned: Tuned,
+}
+
+impl AxisStep {
+    /// The fault_state frame of this step.
+    pub fn fault_state(&self, axis_node_id: u8) -> FaultStatePdo {
+        FaultStatePdo {
+            axis_node_id,
+            state: self.supervision.state,
+            flags: self.supervision.latched.union(self.supervision.pending),
+            diagnosed_fault: self.model.diagnosed_fault,
+            following_error: self.following_error,
+        }
+    }
+
+    /// The fault_diagnosis frame of this step.
+    pub fn fault_diagnosis(&self, axis_node_id: u8) -> FaultDiagnosisPdo {
+        FaultDiagnosisPdo {
+            axis_node_id,
+            confidence: self.model.confidence,
+            nominal_learned: self.model.nominal_learned,
+            latched: self.model.machine.latched,
+            observer_learned: self.tuned.observer_learned,
+            symptoms: self.model.symptoms,
+            observer_x4_pos: self.tuned.observer_x4_pos,
+            observer_x4_neg: self.tuned.observer_x4_neg,
+        }
+    }
+
+    /// The tuned_parameters frame of this step.
+    pub fn tuned_parameters(&self, axis_node_id: u8) -> TunedParametersPdo {
+        TunedParametersPdo {
+            axis_node_id,
+            friction_compensation_v: self.friction_compensation,
+            gain_schedule_factor: self.tuned.gain_schedule_factor,
+            friction_compensation_pos_v: self.tuned.friction_compensation_pos,
+            friction_compensation_neg_v: self.tuned.friction_compensation_neg,
+        }
+    }
+
+    /// The tuned_gains frame of this step.
+    pub fn tuned_gains(&self, axis_node_id: u8) -> TunedGainsPdo {
+        TunedGainsPdo {
+            axis_node_id,
+            gain_down_per_m: self.tuned.gain_down_per_m,
+            gain_up_per_m: self.tuned.gain_up_per_m,
+            drive_gain_down_m_per_s: self.tuned.drive_gain_down_m_per_s,
+            drive_gain_up_m_per_s: self.tuned.drive_gain_up_m_per_s,
+            adapted_down: self.tuned.adapted_down,
+            adapted_up: self.tuned.adapted_up,
+        }
+    }
+
+    /// Adds what the supervision says after this step to an EMCY.
+    pub fn emcy(&self, emcy: Emcy) -> Emcy {
+        emcy.with_supervision(
+            self.supervision.state,
+            self.model.diagnosed_fault,
+            self.model.machine.latched,
+        )
+    }
+
+    /// Supervised faults latched in this cycle that get an EMCY of their own (a limit violation
+    /// is announced by the limit's own EMCY).
+    pub fn supervised_raised(&self) -> impl Iterator<Item = SupervisedFault> {
+        self.model
+            .machine
+            .raised
+            .iter()
+            .filter(|f| *f != SupervisedFault::LimitViolation)
+    }
+}
+
+/// Windowed parameter estimation in operation: each window of moving samples is one short test;
+/// the first windows give the nominal parameters unless they are configured.
+struct Estimation {
+    estimator: ParameterEstimator,
+    window_updates: u64,
+    nominal: Option<PhysicalParameters>,
+    nominal_sum: [f64; PHYSICAL_PARAMS],
+    nominal_count: u32,
+    nominal_windows: u32,
+    thresholds: [f64; PHYSICAL_PARAMS],
+    max_distance: usize,
+    confirm_windows: u32,
+    candidate: Option<DiagnosedFault>,
+    candidate_windows: u32,
+    /// The diagnosis confirmed by `confirm_windows` windows in a row.
+    present: Option<DiagnosedFault>,
+    confidence: f64,
+    symptoms: [Symptom; PHYSICAL_PARAMS],
+    last: Option<PhysicalParameters>,
+}
+
+impl Estimation {
+    fn step(&mut self, position: f64, command: f64) {
+        self.estimator.step(position, command);
+        if self.estimator.updates() < self.window_updates {
+            return;
+        }
+        let p = self.estimator.physical();
+        self.estimator.reset();
+        // A window whose polynomial has no physical reading tells nothing: skip it.
+        let Some(p) = p else { return };
+        self.last = Some(p);
+        let Some(nominal) = self.nominal else {
+            for (sum, v) in self.nominal_sum.iter_mut().zip(p.values) {
+                *sum += v;
+            }
+            self.nominal_count += 1;
+            if self.nominal_count >= self.nominal_windows {
+                let n = f64::from(self.nominal_count);
+                self.nominal = Some(PhysicalParameters {
+                    values: self.nominal_sum.map(|v| v / n),
+                });
+            }
+            return;
+        };
+        self.symptoms = symptoms(&p, &nominal, &self.thresholds);
+        let d = diagnose(&self.symptoms, self.max_distance);
+        if d.fault == self.candidate {
+            self.candidate_windows = self.candidate_windows.saturating_add(1);
+        } else {
+            self.candidate = d.fault;
+            self.candidate_windows = 1;
+        }
+        self.confidence = d.confidence;
+        self.present = if self.candidate_windows >= self.confirm_windows {
+            self.candidate
+        } else {
+            None
+        };
+    }
+}
+
+fn supervised(fault: DiagnosedFault) -> SupervisedFault {
+    match fault {
+        DiagnosedFault::SpringPretension => SupervisedFault::SpringPretension,
+        DiagnosedFault::SpringStiffness => SupervisedFault::SpringStiffness,
+        DiagnosedFault::FrictionIncrease => SupervisedFault::FrictionIncrease,
+        DiagnosedFault::CurrentGain => SupervisedFault::CurrentGain,
+    }
+}
+
+fn state_of(level: SupervisionLevel) -> FaultState {
+    match level {
+        SupervisionLevel::Ok => FaultState::Ok,
+        SupervisionLevel::Warning => FaultState::Warning,
+        SupervisionLevel::MaintenanceRequested => FaultState::MaintenanceRequested,
+        SupervisionLevel::FailSafe => FaultState::Fault,
+    }
+}
+
+/// An algorithm that cannot be built from a configuration that skipped `Config::validate`,
+/// which reports the same problem with its file and key.
+fn unvalidated(e: ParamError) -> ControllerError {
+    ControllerError::NotFinite(e.name)
 }
 
 /// The state of one axis between cycles.
@@ -31,6 +266,18 @@ pub struct Axis {
     safe_command: f64,
     controller: DiscreteController,
     friction: Option<FrictionFeedForward>,
+    adaptive_friction: Option<AdaptiveFriction>,
+    dither: Option<Dither>,
+    correction: Option<NonlinearCorrection>,
+    gain_schedule: Option<(ScheduleVariable, GainSchedule)>,
+    pneumatic: Option<PneumaticAdaptive>,
+    pneumatic_step: PneumaticStep,
+    observer: Option<DisturbanceObserver>,
+    observer_out: ObserverOutput,
+    estimation: Option<Estimation>,
+    machine: FaultMachine,
+    model: ModelSupervision,
+    gain_factor: f64,
     supervisor: LimitSupervisor,
     travel: (f64, f64),
     setpoint: f64,
@@ -52,6 +299,7 @@ pub struct Axis {
     node_was_operational: bool,
     last_command: f64,
     last_compensation: f64,
+    last_dither: f64,
 }
 
 impl Axis {
@@ -105,6 +353,63 @@ impl Axis {
             sensor_timeout_cycles: cycles(l.sensor_timeout_s, period_s),
             heartbeat_timeout_s: l.heartbeat_timeout_s,
         };
+        let adaptive_friction = cfg
+            .adaptive_friction_config(period_s)
+            .map(AdaptiveFriction::new)
+            .transpose()
+            .map_err(unvalidated)?;
+        let dither = cfg
+            .dither_config(period_s)
+            .map(Dither::new)
+            .transpose()
+            .map_err(unvalidated)?;
+        let correction = cfg
+            .correction_config()
+            .map(NonlinearCorrection::new)
+            .transpose()
+            .map_err(unvalidated)?;
+        let gain_schedule = match (cfg.gain_factor_points(), &cfg.schedule) {
+            (Ok(Some(points)), Some(s)) => Some((
+                s.variable().0,
+                GainSchedule::new(&points).map_err(unvalidated)?,
+            )),
+            (Err(_), _) => return Err(ControllerError::NotFinite("schedule")),
+            _ => None,
+        };
+        let pneumatic = match cfg.pneumatic_config(period_s) {
+            Ok(Some(c)) => Some(PneumaticAdaptive::new(&c).map_err(unvalidated)?),
+            Ok(None) => None,
+            Err(_) => return Err(ControllerError::NotFinite("schedule")),
+        };
+        let observer = cfg
+            .observer_config(period_s)
+            .map(DisturbanceObserver::new)
+            .transpose()
+            .map_err(unvalidated)?;
+        let estimation = match (
+            cfg.parameter_estimator_config(period_s),
+            &cfg.parameter_estimation,
+        ) {
+            (Some(c), Some(p)) => Some(Estimation {
+                estimator: ParameterEstimator::new(c).map_err(unvalidated)?,
+                window_updates: p.window_updates,
+                nominal: p.nominal.map(|n| PhysicalParameters { values: n.values() }),
+                nominal_sum: [0.0; PHYSICAL_PARAMS],
+                nominal_count: 0,
+                nominal_windows: p.nominal_windows.max(1),
+                thresholds: p.relative_thresholds,
+                max_distance: p.max_distance,
+                confirm_windows: p.confirm_windows.max(1),
+                candidate: None,
+                candidate_windows: 0,
+                present: None,
+                confidence: 1.0,
+                symptoms: [Symptom::Zero; PHYSICAL_PARAMS],
+                last: None,
+            }),
+            _ => None,
+        };
+        let machine = FaultMachine::new(&cfg.fault_machine_config()).map_err(unvalidated)?;
         Ok(Self {
             name: cfg.name.clone(),
             actuator_node_id: cfg.actuator_node_id,
@@ -113,6 +418,25 @@ impl Axis {
             safe_command: cfg.safe_command,
             controller,
             friction,
+            adaptive_friction,
+            dither,
+            correction,
+            gain_schedule,
+            pneumatic,
+            pneumatic_step: PneumaticStep::default(),
+            observer,
+            observer_out: ObserverOutput {
+                x4_pos: f64::NAN,
+                x4_neg: f64::NAN,
+                ..Default::default()
+            },
+            estimation,
+            machine,
+            model: ModelSupervision {
+                confidence: 1.0,
+                ..Default::default()
+            },
+            gain_factor: 1.0,
             supervisor: LimitSupervisor::new(limits),
             travel: (
                 l.position_min_m.unwrap_or(f64::NEG_INFINITY),
@@ -136,6 +460,7 @@ impl Axis {
             node_was_operational: false,
             last_command: cfg.safe_command,
             last_compensation: 0.0,
+            last_dither: 0.0,
         })
     }
 
@@ -179,6 +504,14 @@ impl Axis {
     /// Clear latched faults; the controller restarts bumplessly from the safe command.
     pub fn reset_faults(&mut self) {
         self.supervisor.reset();
+        self.machine.reset();
+        self.model.diagnosed_fault = None;
+        self.model.confidence = 1.0;
+        self.model.machine = FaultMachineOutput::default();
+        // The reference model restarts from where the axis rests; what was learned stays.
+        if let Some(a) = self.adaptive_friction.as_mut() {
+            a.reset_model();
+        }
         self.controller.preset(self.safe_command);
         self.node_was_operational = self.node_state == Some(NmtState::Operational);
         self.last_command = self.safe_command;
@@ -191,6 +524,8 @@ impl Axis {
     /// Run one cycle at `now_s` with whatever arrived since the last one.
     pub fn step(&mut self, now_s: f64) -> AxisStep {
         self.schedule(now_s);
+        self.estimate();
+        self.observe();
         let supervision = self.supervise(now_s);
         self.control(supervision)
     }
@@ -217,13 +552,46 @@ impl Axis {
         self.reference += (self.setpoint - self.reference)
             .clamp(-self.reference_step_max, self.reference_step_max);
         self.error = self.reference - self.sensor.position;
+        if let Some((variable, schedule)) = self.gain_schedule.as_mut() {
+            let supply = match variable {
+                ScheduleVariable::SupplyVoltage => self.sensor.supply_voltage_v,
+                ScheduleVariable::SupplyPressure => self.supply_pressure_pa,
+            };
+            // A lost reading keeps the last factor (the schedule ignores non-finite input).
+            if let Some(&factor) = schedule.step(supply).first() {
+                self.gain_factor = factor;
+            }
+        }
+    }
+
+    /// Stage "estimation": this cycle's position with the command applied during the period
+    /// that led to it, into the parameter estimation windows. (The drive-gain estimation of a
+    /// duty axis is part of its controller's step and runs in the control stage.)
+    pub fn estimate(&mut self) {
+        if !self.fresh {
+            return;
+        }
+        if let Some(e) = self.estimation.as_mut() {
+            e.step(self.sensor.position, self.last_command);
+        }
+    }
+
+    /// Stage "observer": the disturbance observer with this cycle's position and the command
+    /// applied during the period that led to it.
+    pub fn observe(&mut self) {
+        if !self.fresh {
+            return;
+        }
+        if let Some(o) = self.observer.as_mut() {
+            self.observer_out = o.step(self.sensor.position, self.last_command);
+        }
     }
 
     /// Stage "supervision": limit checks on this cycle's readings.
     pub fn supervise(&mut self, now_s: f64) -> SupervisionOutput {
         let node_operational =
             !self.node_was_operational || self.node_state == Some(NmtState::Operational);
-        self.supervisor.step(&SupervisionInput {
+        let mut limits = self.supervisor.step(&SupervisionInput {
             setpoint: self.reference,
             position: self.sensor.position,
             current_a: self.sensor.current_a,
@@ -233,24 +601,122 @@ impl Axis {
             sensor_missing_cycles: self.missing_cycles,
             heartbeat_age_s: now_s - self.last_heartbeat_s,
             node_operational,
-        })
+        });
+        let mut present = SupervisedFaults::default();
+        if !limits.latched.is_empty() {
+            present.insert(SupervisedFault::LimitViolation);
+        }
+        if self.observer_out.friction_rise {
+            present.insert(SupervisedFault::ObserverFriction);
+        }
+        if let Some(f) = self.estimation.as_ref().and_then(|e| e.present) {
+            present.insert(supervised(f));
+        }
+        let p = &self.pneumatic_step;
+        if p.health_down == EstimatorHealth::Implausible
+            || p.health_up == EstimatorHealth::Implausible
+        {
+            present.insert(SupervisedFault::EstimatorImplausible);
+        }
+        let machine = self.machine.step(present);
+        if let Some(f) = machine.raised.iter().next() {
+            self.model.diagnosed_fault = Some(f);
+            self.model.confidence = match (f, &self.estimation) {
+                (
+                    SupervisedFault::SpringPretension
+                    | SupervisedFault::SpringStiffness
+                    | SupervisedFault::FrictionIncrease
+                    | SupervisedFault::CurrentGain,
+                    Some(e),
+                ) => e.confidence,
+                _ => 1.0,
+            };
+        }
+        self.model.machine = machine;
+        if let Some(e) = &self.estimation {
+            self.model.symptoms = e.symptoms;
+            self.model.nominal_learned = e.nominal.is_some();
+            self.model.estimate = e.last;
+        }
+        // The published state: the fault machine's decision, at least "warning" while a limit
+        // is exceeded but not yet latched.
+        let mut state = state_of(machine.level);
+        if !limits.pending.is_empty() && state.severity() < FaultState::Warning.severity() {
+            state = FaultState::Warning;
+        }
+        limits.state = state;
+        limits
     }
 
-    /// Stage "control": the command, or the safe command while a fault is latched.
+    /// Stage "control": the command, or the safe command while the fault machine says fail-safe.
     pub fn control(&mut self, supervision: SupervisionOutput) -> AxisStep {
         let e = self.error;
-        if !supervision.latched.is_empty() {
+        let y = self.sensor.position;
+        if self.model.machine.fail_safe {
             self.last_command = self.safe_command;
             self.last_compensation = 0.0;
+            self.last_dither = 0.0;
         } else if self.fresh {
-            let comp = self.friction.map_or(0.0, |f| f.compensation(e));
-            let (lo, hi) = self.controller.limits();
-            let u = (self.controller.propose(e) + comp).clamp(lo, hi);
-            // The controller's own share of what was applied: feeding it back is the anti-windup.
-            self.controller.commit(e, u - comp);
-            self.last_command = u;
-            self.last_compensation = comp;
+            if let Some(p) = self.pneumatic.as_mut() {
+                // Scheduled (and, when configured, adapted) direction P gains on the supply.
+                self.pneumatic_step = p.step(self.reference, y, self.supply_pressure_pa);
+                self.last_command = self.pneumatic_step.duty;
+                self.last_compensation = 0.0;
+            } else {
+                // u = f*(G_c(q) g e) + U_comp + u_d: the schedule's factor g scales the error
+                // the linear controller sees (the same as scaling its q coefficients), the
+                // correction linearises the static characteristic, friction compensation and
+                // dither are added after it because they are already in command units at the
+                // actuator.
+                let e_scaled = self.gain_factor * e;
+                let comp = match (self.adaptive_friction.as_mut(), self.friction) {
+                    (Some(a), _) => a.step(self.reference, y).compensation,
+                    (None, Some(f)) => f.compensation(e),
+                    (None, None) => 0.0,
+                };
+                let dither = self
+                    .dither
+                    .as_mut()
+                    .map_or(0.0, |d| d.step(self.reference, y));
+                let u_c = self.controller.propose(e_scaled);
+                let u_corr = self.correction.as_mut().map_or(u_c, |c| c.step(u_c, y));
+                let (lo, hi) = self.controller.limits();
+                let u = (u_corr + comp + dither).clamp(lo, hi);
+                // The controller's own share of what was applied, back through the correction's
+                // gain: feeding it back is the anti-windup.
+                let own = u - comp - dither;
+                let share = if self.correction.is_some() && u_corr.abs() > 1e-12 {
+                    u_c * own / u_corr
+                } else {
+                    own
+                };
+                self.controller.commit(e_scaled, share);
+                self.last_command = u;
+                self.last_compensation = comp;
+                self.last_dither = dither;
+            }
         }
+        let (comp_pos, comp_neg) = match (&self.adaptive_friction, self.friction) {
+            (Some(a), _) => a.compensation_values(),
+            (None, Some(f)) => (f.compensation(1.0), -f.compensation(-1.0)),
+            (None, None) => (0.0, 0.0),
+        };
+        let p = &self.pneumatic_step;
+        let tuned = Tuned {
+            friction_compensation_pos: comp_pos,
+            friction_compensation_neg: comp_neg,
+            gain_schedule_factor: self.gain_factor,
+            dither: self.last_dither,
+            gain_down_per_m: p.gain_down_per_m,
+            gain_up_per_m: p.gain_up_per_m,
+            drive_gain_down_m_per_s: p.estimate_down_m_per_s,
+            drive_gain_up_m_per_s: p.estimate_up_m_per_s,
+            adapted_down: p.source_down == GainSource::Adapted,
+            adapted_up: p.source_up == GainSource::Adapted,
+            observer_x4_pos: self.observer_out.x4_pos,
+            observer_x4_neg: self.observer_out.x4_neg,
+            observer_learned: self.observer_out.learned,
+        };
         AxisStep {
             command: self.last_command,
             friction_compensation: self.last_compensation,
@@ -261,6 +727,8 @@ impl Axis {
             supply_pressure_pa: self.supply_pressure_pa,
             sensor_fresh: self.fresh,
             supervision,
+            model: self.model,
+            tuned,
         }
     }
 

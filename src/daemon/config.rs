@@ -1,6 +1,15 @@
 //! The daemon's TOML configuration: parsing, defaults and validation with errors that name
 //! the file, the key and the rule broken.
 
+use crate::control::{
+    AdaptiveFriction, AdaptiveFrictionConfig, Dither, DitherConfig, GainSchedule,
+    NonlinearCorrection, NonlinearCorrectionConfig, ParamError, PneumaticAdaptive,
+    PneumaticAdaptiveConfig, SchedulePoint,
+};
+use crate::supervise::{
+    DisturbanceObserver, EstimatorSupervisorConfig, FaultMachineConfig, ObserverConfig,
+    ParameterEstimator, ParameterEstimatorConfig, Reaction, SupervisedFault,
+};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -134,6 +143,23 @@ pub struct AxisConfig {
     pub safe_command: f64,
     pub controller: ControllerConfig,
     pub friction_compensation: Option<FrictionCompensationConfig>,
+    /// Adaptive friction compensation with a reference model; replaces the feed-forward of
+    /// `[axis.friction_compensation]`, whose values (when present) are its starting point.
+    pub adaptive_friction: Option<AdaptiveFrictionSection>,
+    /// A sine added to the command against stiction.
+    pub dither: Option<DitherSection>,
+    /// Inverse of the static force characteristic applied to the controller output.
+    pub correction: Option<CorrectionSection>,
+    /// Controller parameters as functions of the measured supply voltage or pressure.
+    pub schedule: Option<ScheduleSection>,
+    /// Online estimation of the drive gains of a duty axis and redesign of its P gains.
+    pub pneumatic_adaptive: Option<PneumaticAdaptiveSection>,
+    /// Disturbance observer with learned x4 bands (fault detection by state estimation).
+    pub observer: Option<ObserverSection>,
+    /// Parameter estimation, symptoms and diagnosis with the fault-symptom table.
+    pub parameter_estimation: Option<ParameterEstimationSection>,
+    /// Reaction per supervised fault; absent: the defaults of [`FaultReactionsSection`].
+    pub fault_reactions: Option<FaultReactionsSection>,
     pub limits: LimitsConfig,
     /// A setpoint schedule; setpoint frames on the bus override it until its next entry.
     #[serde(default)]
@@ -170,6 +196,244 @@ pub struct FrictionCompensationConfig {
     /// Errors below this count as zero for the sign, m.
     #[serde(default)]
     pub deadband_m: f64,
+}
+
+/// `[axis.adaptive_friction]`: `U_comp±` adapted from the reference-model deviation
+/// `e_M = y - y_M` (see `control::AdaptiveFriction`). Command unit: V or duty, as `command`.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct AdaptiveFrictionSection {
+    /// `T_M`, time constant of the first-order reference model: the loop's speed without friction.
+    pub model_time_constant_s: f64,
+    /// `γ`, command unit per m of model deviation per s.
+    pub adaptation_gain_per_m_s: f64,
+    /// Largest compensation per direction, command unit.
+    pub compensation_max: f64,
+    /// Control errors within this give no compensation, m.
+    pub error_deadband_m: f64,
+    /// Model deviations within this do not adapt (sensor noise), m.
+    pub model_deadband_m: f64,
+    /// Adapt only when `|w - y_M|` is below this (the model has settled), m.
+    pub settled_band_m: f64,
+}
+
+/// `[axis.dither]`: `u_d = A sin(2π f t)`, fixed or self-adapting (see `control::Dither`).
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DitherSection {
+    /// Starting (or fixed) amplitude, command unit.
+    pub amplitude: f64,
+    /// Starting (or fixed) frequency, at most 1 / (2 period_s).
+    pub frequency_hz: f64,
+    /// Adapt amplitude and frequency; the keys below are needed only then.
+    #[serde(default)]
+    pub adapt: bool,
+    pub amplitude_min: Option<f64>,
+    pub amplitude_max: Option<f64>,
+    pub frequency_min_hz: Option<f64>,
+    pub frequency_max_hz: Option<f64>,
+    /// Amplitude change rate, command unit per s.
+    pub amplitude_rate_per_s: Option<f64>,
+    /// Relative frequency change rate, 1/s.
+    pub frequency_rate_per_s: Option<f64>,
+    /// Errors within this count as on target, m.
+    pub error_tolerance_m: Option<f64>,
+    /// Mean |Δy| per sample below this counts as standstill, m.
+    pub ripple_moving_m: Option<f64>,
+    /// Mean |Δy| per sample above this is too much ripple, m.
+    pub ripple_max_m: Option<f64>,
+    pub ripple_time_constant_s: Option<f64>,
+}
+
+/// `[axis.correction]`: `U* = U g(Y_ref) / g(Y)`, `g(Y) = c0 + c1 (Y0 - Y) + c2 (Y0 - Y)²`.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CorrectionSection {
+    /// `Y0`, the magnet's pole position, m.
+    pub pole_m: f64,
+    pub c0: f64,
+    pub c1_per_m: f64,
+    #[serde(default)]
+    pub c2_per_m2: f64,
+    /// Position where the correction is the identity (where the controller was tuned), m.
+    pub reference_position_m: f64,
+    /// Smallest `g(Y) / g(Y_ref)` used, limits the boost.
+    pub min_gain_ratio: f64,
+}
+
+/// `[axis.schedule]`: a table of points, one column per key, linear between points and held
+/// beyond the ends. Exactly one of `supply_voltage_v` / `supply_pressure_pa` names the measured
+/// variable; `gain_factor` multiplies the controller's gains, or, on a duty axis,
+/// `drive_gain_down_m_per_s` / `drive_gain_up_m_per_s` (`K_I1`, `K_I2`) give the direction P
+/// gains by the quadratic-cost design with `effort_weight_m2`.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ScheduleSection {
+    pub supply_voltage_v: Option<Vec<f64>>,
+    pub supply_pressure_pa: Option<Vec<f64>>,
+    pub gain_factor: Option<Vec<f64>>,
+    pub drive_gain_down_m_per_s: Option<Vec<f64>>,
+    pub drive_gain_up_m_per_s: Option<Vec<f64>>,
+    /// `r` of the cost `Σ e² + r U²`, m² per duty².
+    pub effort_weight_m2: Option<f64>,
+    /// Errors within this give no command on a direction-P axis, m.
+    #[serde(default)]
+    pub deadband_m: f64,
+}
+
+/// What the schedule reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ScheduleVariable {
+    SupplyVoltage,
+    SupplyPressure,
+}
+
+impl ScheduleSection {
+    /// The measured variable and its column (validated: exactly one is given).
+    pub fn variable(&self) -> (ScheduleVariable, &[f64]) {
+        match (&self.supply_voltage_v, &self.supply_pressure_pa) {
+            (Some(v), _) => (ScheduleVariable::SupplyVoltage, v),
+            (None, Some(p)) => (ScheduleVariable::SupplyPressure, p),
+            (None, None) => (ScheduleVariable::SupplyVoltage, &[]),
+        }
+    }
+
+    /// True when the schedule gives drive gains (direction P on a duty axis).
+    pub fn schedules_drive_gains(&self) -> bool {
+        self.drive_gain_down_m_per_s.is_some() || self.drive_gain_up_m_per_s.is_some()
+    }
+}
+
+/// `[axis.pneumatic_adaptive]`: DSFI estimation of `K_I1`, `K_I2` with supervision; the scheduled
+/// drive gains of `[axis.schedule]` are the start and the fallback.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PneumaticAdaptiveSection {
+    /// DSFI forgetting factor λ (the paper: 0.975).
+    pub forgetting: f64,
+    /// Estimate only with |duty| at least this.
+    pub min_duty: f64,
+    /// ... and |ΔY| per sample at least this, m.
+    pub min_position_step_m: f64,
+    /// Updates with `z >= eigenvalue_valid` before an estimate is used (the paper: 3-4).
+    pub min_updates: u32,
+    /// Estimator eigenvalue `z = 1 - ψᵀγ` above which an update counts as converged, in (0, 1).
+    pub eigenvalue_valid: f64,
+    /// Plausible band of `K_I`, m/s; outside it the scheduled gains are used.
+    pub drive_gain_min_m_per_s: f64,
+    pub drive_gain_max_m_per_s: f64,
+}
+
+/// `[axis.observer]`: model `[Y, Y', I, x4]` of the solenoid drive, pole placement, x4 bands.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ObserverSection {
+    pub mass_kg: f64,
+    pub damping_n_s_per_m: f64,
+    pub spring_n_per_m: f64,
+    pub force_constant_n_per_a: f64,
+    pub current_gain_a_per_v: f64,
+    pub current_time_constant_s: f64,
+    /// Discrete observer poles, inside the unit circle.
+    pub poles: [f64; 4],
+    /// |y - Ŷ| below this counts as a small residual, m.
+    pub residual_max_m: f64,
+    /// |Ŷ'| above this counts as moving, m/s.
+    pub moving_speed_m_per_s: f64,
+    /// Time after start before anything is learned or compared, s.
+    pub warmup_s: f64,
+    /// Moving samples per direction that make the learned band.
+    pub learn_samples: u32,
+    /// Band half-width `max(band_sigmas σ, band_min_halfwidth_m)`.
+    pub band_sigmas: f64,
+    pub band_min_halfwidth_m: f64,
+    pub smoothing_time_constant_s: f64,
+    /// Compared moving samples outside the band before the deviation counts.
+    pub persistence_samples: u32,
+}
+
+/// Nominal physical parameters `p = [T_I, D, ω0, K_P, F_C, F_0]`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct NominalParameters {
+    pub current_time_constant_s: f64,
+    pub damping_ratio: f64,
+    pub natural_frequency_rad_per_s: f64,
+    pub static_gain_m_per_v: f64,
+    pub coulomb_friction_n: f64,
+    pub pretension_n: f64,
+}
+
+impl NominalParameters {
+    pub fn values(&self) -> [f64; 6] {
+        [
+            self.current_time_constant_s,
+            self.damping_ratio,
+            self.natural_frequency_rad_per_s,
+            self.static_gain_m_per_v,
+            self.coulomb_friction_n,
+            self.pretension_n,
+        ]
+    }
+}
+
+/// `[axis.parameter_estimation]`: θ by state-variable filters and least squares over windows of
+/// moving samples in operation → `p` → symptoms against the nominal `p` → fault-symptom table.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ParameterEstimationSection {
+    /// Corner of the state-variable filters, above the plant's poles, rad/s.
+    pub filter_omega_rad_s: f64,
+    /// Known mass and current-loop time constant of the model (mass is not identifiable; `T_I`
+    /// picks the current pole among the roots).
+    pub mass_kg: f64,
+    pub current_time_constant_s: f64,
+    /// Speed above which a sample counts as moving, m/s.
+    pub moving_speed_m_per_s: f64,
+    /// Consecutive moving samples before they enter the regression (the filters' memory).
+    pub min_moving_samples: u32,
+    /// Regression updates per estimation window.
+    pub window_updates: u64,
+    /// Windows averaged into the learned nominal `p` (when `nominal` is not given).
+    #[serde(default = "one")]
+    pub nominal_windows: u32,
+    /// Consecutive windows with the same diagnosis before it counts as present.
+    #[serde(default = "one")]
+    pub confirm_windows: u32,
+    /// Relative deviation for a symptom, per `[T_I, D, ω0, K_P, F_C, F_0]`; `inf` = not judged.
+    pub relative_thresholds: [f64; 6],
+    /// Largest number of differing symptoms for the nearest table row to count.
+    pub max_distance: usize,
+    /// Configured nominal `p`; absent: learned from the first windows.
+    pub nominal: Option<NominalParameters>,
+}
+
+fn one() -> u32 {
+    1
+}
+
+/// A reaction to a latched supervised fault, in increasing severity.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum ReactionName {
+    Warning,
+    MaintenanceRequested,
+    FailSafe,
+}
+
+/// `[axis.fault_reactions]`: one reaction per supervised fault; unnamed faults keep the default
+/// (diagnosed F1-F3 and the observer's friction rise: maintenance_requested; F4 current gain and
+/// limit violations: fail_safe; an implausible estimator: warning).
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FaultReactionsSection {
+    pub spring_pretension: Option<ReactionName>,
+    pub spring_stiffness: Option<ReactionName>,
+    pub friction_increase: Option<ReactionName>,
+    pub current_gain: Option<ReactionName>,
+    pub observer_friction: Option<ReactionName>,
+    pub estimator_implausible: Option<ReactionName>,
+    pub limit_violation: Option<ReactionName>,
 }
 
 #[derive(Debug, Clone, Deserialize, PartialEq)]
@@ -368,6 +632,8 @@ impl Config {
                     ));
                 }
             }
+            axis.check_intelligence(self.cycle.period_s)
+                .map_err(|(key, rule)| bad(&at(&key), rule))?;
             if let Some(v) = axis.setpoint_rate_max_m_per_s {
                 positive(&at("setpoint_rate_max_m_per_s"), v)?;
             }
@@ -456,6 +722,421 @@ impl Config {
                 }
                 last = s.at_s;
             }
+        }
+        Ok(())
+    }
+}
+
+/// A section key and the rule it breaks.
+type KeyRule = (String, String);
+
+fn param(section: &str) -> impl Fn(ParamError) -> KeyRule + '_ {
+    move |e| (format!("{section}.{}", e.name), e.reason)
+}
+
+fn column<'a>(
+    section: &str,
+    key: &str,
+    v: &'a Option<Vec<f64>>,
+    n: usize,
+) -> Result<&'a [f64], KeyRule> {
+    let v = v
+        .as_deref()
+        .ok_or_else(|| (format!("{section}.{key}"), "is missing".to_string()))?;
+    if v.len() != n {
+        return Err((
+            format!("{section}.{key}"),
+            format!("needs one value per point ({n}), got {}", v.len()),
+        ));
+    }
+    Ok(v)
+}
+
+/// The schedule as points of the algorithm, with the reference to the key of a bad column.
+fn schedule_points(
+    s: &ScheduleSection,
+    columns: &[(&str, &Option<Vec<f64>>)],
+) -> Result<Vec<SchedulePoint>, KeyRule> {
+    let (_, supply) = s.variable();
+    let n = supply.len();
+    let mut cols = Vec::with_capacity(columns.len());
+    for (key, v) in columns {
+        cols.push(column("schedule", key, v, n)?);
+    }
+    Ok((0..n)
+        .map(|i| SchedulePoint {
+            supply: supply[i],
+            params: cols.iter().map(|c| c[i]).collect(),
+        })
+        .collect())
+}
+
+impl AxisConfig {
+    /// `[axis.adaptive_friction]` as the algorithm's configuration; starts from the feed-forward
+    /// values `α F_C± / K` of `[axis.friction_compensation]` when given (clamped to the maximum).
+    pub fn adaptive_friction_config(&self, period_s: f64) -> Option<AdaptiveFrictionConfig> {
+        let a = self.adaptive_friction.as_ref()?;
+        let (pos, neg) = self.friction_compensation.as_ref().map_or((0.0, 0.0), |f| {
+            let k = f.force_gain_n_per_command;
+            (f.alpha * f.coulomb_pos_n / k, f.alpha * f.coulomb_neg_n / k)
+        });
+        let clamp = |v: f64| {
+            if v.is_finite() {
+                v.clamp(0.0, a.compensation_max.max(0.0))
+            } else {
+                0.0
+            }
+        };
+        Some(AdaptiveFrictionConfig {
+            period_s,
+            model_time_constant_s: a.model_time_constant_s,
+            adaptation_gain_per_m_s: a.adaptation_gain_per_m_s,
+            max_compensation: a.compensation_max,
+            initial_pos: clamp(pos),
+            initial_neg: clamp(neg),
+            error_deadband_m: a.error_deadband_m,
+            model_deadband_m: a.model_deadband_m,
+            settled_band_m: a.settled_band_m,
+        })
+    }
+
+    /// `[axis.dither]`; without adaptation the bands collapse onto the fixed values.
+    pub fn dither_config(&self, period_s: f64) -> Option<DitherConfig> {
+        let d = self.dither.as_ref()?;
+        Some(DitherConfig {
+            period_s,
+            amplitude: d.amplitude,
+            frequency_hz: d.frequency_hz,
+            adapt: d.adapt,
+            amplitude_min: d.amplitude_min.unwrap_or(d.amplitude),
+            amplitude_max: d.amplitude_max.unwrap_or(d.amplitude),
+            frequency_min_hz: d.frequency_min_hz.unwrap_or(d.frequency_hz),
+            frequency_max_hz: d.frequency_max_hz.unwrap_or(d.frequency_hz),
+            amplitude_rate_per_s: d.amplitude_rate_per_s.unwrap_or(0.0),
+            frequency_rate_per_s: d.frequency_rate_per_s.unwrap_or(0.0),
+            error_tolerance_m: d.error_tolerance_m.unwrap_or(0.0),
+            ripple_moving_m: d.ripple_moving_m.unwrap_or(0.0),
+            ripple_max_m: d.ripple_max_m.unwrap_or(f64::MAX),
+            ripple_time_constant_s: d.ripple_time_constant_s.unwrap_or(period_s),
+        })
+    }
+
+    pub fn correction_config(&self) -> Option<NonlinearCorrectionConfig> {
+        let c = self.correction.as_ref()?;
+        Some(NonlinearCorrectionConfig {
+            pole_m: c.pole_m,
+            c0: c.c0,
+            c1_per_m: c.c1_per_m,
+            c2_per_m2: c.c2_per_m2,
+            reference_position_m: c.reference_position_m,
+            min_gain_ratio: c.min_gain_ratio,
+            output_min: self.controller.output_min,
+            output_max: self.controller.output_max,
+        })
+    }
+
+    /// The gain-factor schedule (`gain_factor` column), if the axis has one.
+    pub fn gain_factor_points(&self) -> Result<Option<Vec<SchedulePoint>>, KeyRule> {
+        match &self.schedule {
+            Some(s) if !s.schedules_drive_gains() => {
+                schedule_points(s, &[("gain_factor", &s.gain_factor)]).map(Some)
+            }
+            _ => Ok(None),
+        }
+    }
+
+    /// The direction-P axis (scheduled drive gains, optionally adapted online), if configured.
+    pub fn pneumatic_config(
+        &self,
+        period_s: f64,
+    ) -> Result<Option<PneumaticAdaptiveConfig>, KeyRule> {
+        let Some(s) = self.schedule.as_ref().filter(|s| s.schedules_drive_gains()) else {
+            return Ok(None);
+        };
+        let schedule = schedule_points(
+            s,
+            &[
+                ("drive_gain_down_m_per_s", &s.drive_gain_down_m_per_s),
+                ("drive_gain_up_m_per_s", &s.drive_gain_up_m_per_s),
+            ],
+        )?;
+        let effort_weight_m2 = s.effort_weight_m2.ok_or_else(|| {
+            (
+                "schedule.effort_weight_m2".to_string(),
+                "is needed with drive gains".to_string(),
+            )
+        })?;
+        let a = self.pneumatic_adaptive.as_ref();
+        Ok(Some(PneumaticAdaptiveConfig {
+            period_s,
+            schedule,
+            effort_weight_m2,
+            adapt: a.is_some(),
+            forgetting: a.map_or(0.975, |a| a.forgetting),
+            supervision: EstimatorSupervisorConfig {
+                min_input: a.map_or(0.0, |a| a.min_duty),
+                min_output_step: a.map_or(0.0, |a| a.min_position_step_m),
+                min_updates: a.map_or(1, |a| a.min_updates),
+                eigenvalue_valid: a.map_or(0.5, |a| a.eigenvalue_valid),
+                plausible: a.map_or(vec![], |a| {
+                    vec![(a.drive_gain_min_m_per_s, a.drive_gain_max_m_per_s)]
+                }),
+            },
+            deadband_m: s.deadband_m,
+            output_min: self.controller.output_min,
+            output_max: self.controller.output_max,
+        }))
+    }
+
+    pub fn observer_config(&self, period_s: f64) -> Option<ObserverConfig> {
+        let o = self.observer.as_ref()?;
+        Some(ObserverConfig {
+            period_s,
+            mass_kg: o.mass_kg,
+            damping_n_s_per_m: o.damping_n_s_per_m,
+            spring_n_per_m: o.spring_n_per_m,
+            force_constant_n_per_a: o.force_constant_n_per_a,
+            current_gain_a_per_v: o.current_gain_a_per_v,
+            current_time_constant_s: o.current_time_constant_s,
+            poles: o.poles,
+            residual_max_m: o.residual_max_m,
+            moving_speed_m_per_s: o.moving_speed_m_per_s,
+            warmup_samples: (o.warmup_s / period_s)
+                .round()
+                .clamp(0.0, f64::from(u32::MAX)) as u32,
+            learn_samples: o.learn_samples,
+            band_sigmas: o.band_sigmas,
+            band_min_halfwidth_m: o.band_min_halfwidth_m,
+            smoothing_time_constant_s: o.smoothing_time_constant_s,
+            persistence_samples: o.persistence_samples,
+        })
+    }
+
+    pub fn parameter_estimator_config(&self, period_s: f64) -> Option<ParameterEstimatorConfig> {
+        let p = self.parameter_estimation.as_ref()?;
+        Some(ParameterEstimatorConfig {
+            period_s,
+            filter_omega_rad_s: p.filter_omega_rad_s,
+            // One window is one short test: no forgetting inside it.
+            forgetting: 1.0,
+            mass_kg: p.mass_kg,
+            nominal_current_time_constant_s: p.current_time_constant_s,
+            moving_speed_m_per_s: p.moving_speed_m_per_s,
+            min_moving_samples: p.min_moving_samples,
+        })
+    }
+
+    /// The fault machine's policies: the defaults with the configured reactions.
+    pub fn fault_machine_config(&self) -> FaultMachineConfig {
+        let mut config = FaultMachineConfig::default();
+        let Some(r) = &self.fault_reactions else {
+            return config;
+        };
+        for policy in config.policies.iter_mut() {
+            let named = match policy.fault {
+                SupervisedFault::SpringPretension => r.spring_pretension,
+                SupervisedFault::SpringStiffness => r.spring_stiffness,
+                SupervisedFault::FrictionIncrease => r.friction_increase,
+                SupervisedFault::CurrentGain => r.current_gain,
+                SupervisedFault::ObserverFriction => r.observer_friction,
+                SupervisedFault::EstimatorImplausible => r.estimator_implausible,
+                SupervisedFault::LimitViolation => r.limit_violation,
+            };
+            if let Some(n) = named {
+                policy.reaction = match n {
+                    ReactionName::Warning => Reaction::Warning,
+                    ReactionName::MaintenanceRequested => Reaction::Maintenance,
+                    ReactionName::FailSafe => Reaction::FailSafe,
+                };
+            }
+        }
+        config
+    }
+
+    /// Build every configured algorithm once, so a bad value is reported with its key here and
+    /// not found later by the cycle.
+    fn check_intelligence(&self, period_s: f64) -> Result<(), KeyRule> {
+        if let Some(c) = self.adaptive_friction_config(period_s) {
+            AdaptiveFriction::new(c).map_err(param("adaptive_friction"))?;
+        }
+        if let Some(c) = self.dither_config(period_s) {
+            let d = self.dither.as_ref().is_some_and(|d| d.adapt);
+            let missing = self.dither.as_ref().and_then(|d| {
+                [
+                    ("amplitude_min", d.amplitude_min),
+                    ("amplitude_max", d.amplitude_max),
+                    ("frequency_min_hz", d.frequency_min_hz),
+                    ("frequency_max_hz", d.frequency_max_hz),
+                    ("amplitude_rate_per_s", d.amplitude_rate_per_s),
+                    ("frequency_rate_per_s", d.frequency_rate_per_s),
+                    ("error_tolerance_m", d.error_tolerance_m),
+                    ("ripple_moving_m", d.ripple_moving_m),
+                    ("ripple_max_m", d.ripple_max_m),
+                    ("ripple_time_constant_s", d.ripple_time_constant_s),
+                ]
+                .into_iter()
+                .find(|(_, v)| v.is_none())
+            });
+            if let (true, Some((key, _))) = (d, missing) {
+                return Err((
+                    format!("dither.{key}"),
+                    "is needed with adapt = true".to_string(),
+                ));
+            }
+            Dither::new(c).map_err(param("dither"))?;
+        }
+        if let Some(c) = self.correction_config() {
+            NonlinearCorrection::new(c).map_err(param("correction"))?;
+        }
+        if let Some(s) = &self.schedule {
+            match (&s.supply_voltage_v, &s.supply_pressure_pa) {
+                (Some(_), Some(_)) | (None, None) => {
+                    return Err((
+                        "schedule".to_string(),
+                        "needs exactly one of supply_voltage_v and supply_pressure_pa".to_string(),
+                    ))
+                }
+                _ => {}
+            }
+            if s.schedules_drive_gains() == s.gain_factor.is_some() {
+                return Err((
+                    "schedule".to_string(),
+                    "needs either gain_factor or drive_gain_down_m_per_s and \
+                     drive_gain_up_m_per_s"
+                        .to_string(),
+                ));
+            }
+            if s.schedules_drive_gains() {
+                if self.command != CommandKind::Duty {
+                    return Err((
+                        "schedule.drive_gain_down_m_per_s".to_string(),
+                        "schedules direction P gains, which need command = \"duty\"".to_string(),
+                    ));
+                }
+                if s.variable().0 != ScheduleVariable::SupplyPressure {
+                    return Err((
+                        "schedule.supply_voltage_v".to_string(),
+                        "drive gains are scheduled on supply_pressure_pa".to_string(),
+                    ));
+                }
+            }
+            if let Some(points) = self.gain_factor_points()? {
+                for p in &points {
+                    if !(p.params[0].is_finite() && p.params[0] > 0.0) {
+                        return Err((
+                            "schedule.gain_factor".to_string(),
+                            format!("must be > 0, got {}", p.params[0]),
+                        ));
+                    }
+                }
+                GainSchedule::new(&points).map_err(param("schedule"))?;
+            }
+            if !(s.deadband_m.is_finite() && s.deadband_m >= 0.0) {
+                return Err((
+                    "schedule.deadband_m".to_string(),
+                    format!("must be >= 0, got {}", s.deadband_m),
+                ));
+            }
+        }
+        if self.pneumatic_adaptive.is_some()
+            && !self
+                .schedule
+                .as_ref()
+                .is_some_and(|s| s.schedules_drive_gains())
+        {
+            return Err((
+                "pneumatic_adaptive".to_string(),
+                "needs [axis.schedule] with drive_gain_down_m_per_s and drive_gain_up_m_per_s \
+                 (its start and fallback)"
+                    .to_string(),
+            ));
+        }
+        if let Some(c) = self.pneumatic_config(period_s)? {
+            let section = if self.pneumatic_adaptive.is_some() {
+                "pneumatic_adaptive"
+            } else {
+                "schedule"
+            };
+            PneumaticAdaptive::new(&c).map_err(param(section))?;
+        }
+        if let Some(o) = &self.observer {
+            if !(o.warmup_s.is_finite() && o.warmup_s >= 0.0) {
+                return Err((
+                    "observer.warmup_s".to_string(),
+                    format!("must be >= 0, got {}", o.warmup_s),
+                ));
+            }
+            for (key, v) in [
+                ("band_sigmas", o.band_sigmas),
+                ("band_min_halfwidth_m", o.band_min_halfwidth_m),
+                ("moving_speed_m_per_s", o.moving_speed_m_per_s),
+            ] {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err((format!("observer.{key}"), format!("must be >= 0, got {v}")));
+                }
+            }
+            if o.learn_samples < 2 {
+                return Err((
+                    "observer.learn_samples".to_string(),
+                    format!("must be >= 2, got {}", o.learn_samples),
+                ));
+            }
+        }
+        if let Some(c) = self.observer_config(period_s) {
+            DisturbanceObserver::new(c).map_err(param("observer"))?;
+        }
+        if let Some(p) = &self.parameter_estimation {
+            if p.window_updates < 10 {
+                return Err((
+                    "parameter_estimation.window_updates".to_string(),
+                    format!("must be >= 10 (six parameters), got {}", p.window_updates),
+                ));
+            }
+            for (key, v) in [
+                ("nominal_windows", p.nominal_windows),
+                ("confirm_windows", p.confirm_windows),
+            ] {
+                if v == 0 {
+                    return Err((
+                        format!("parameter_estimation.{key}"),
+                        "must be >= 1".to_string(),
+                    ));
+                }
+            }
+            if let Some((i, t)) = p
+                .relative_thresholds
+                .iter()
+                .enumerate()
+                .find(|(_, t)| t.is_nan() || **t <= 0.0)
+            {
+                return Err((
+                    "parameter_estimation.relative_thresholds".to_string(),
+                    format!("must be > 0 (inf: not judged), value {} is {t}", i + 1),
+                ));
+            }
+            if let Some(n) = &p.nominal {
+                if let Some(v) = n.values().iter().find(|v| !v.is_finite()) {
+                    return Err((
+                        "parameter_estimation.nominal".to_string(),
+                        format!("values must be finite, got {v}"),
+                    ));
+                }
+            }
+            if self.command != CommandKind::Voltage {
+                return Err((
+                    "parameter_estimation".to_string(),
+                    "models the solenoid drive, which needs command = \"voltage\"".to_string(),
+                ));
+            }
+        }
+        if let Some(c) = self.parameter_estimator_config(period_s) {
+            ParameterEstimator::new(c).map_err(param("parameter_estimation"))?;
+        }
+        if self.observer.is_some() && self.command != CommandKind::Voltage {
+            return Err((
+                "observer".to_string(),
+                "models the solenoid drive, which needs command = \"voltage\"".to_string(),
+            ));
         }
         Ok(())
     }

@@ -7,8 +7,8 @@ use super::record::{CycleRecord, Event, Record};
 use crate::bus::Frame;
 use crate::canopen::{
     decode_heartbeat, decode_sync, encode_heartbeat, is_heartbeat, messages, CommandPdo, Emcy,
-    FaultResetPdo, FaultStatePdo, LoopStatusPdo, NmtCommand, NmtState, SensorPdo, SetpointPdo,
-    SupplyPressurePdo, SyncCounter, TunedParametersPdo,
+    FaultResetPdo, LoopStatusPdo, NmtCommand, NmtState, SensorPdo, SetpointPdo, SupplyPressurePdo,
+    SyncCounter,
 };
 use crate::control::ControllerError;
 use crate::supervise::FaultState;
@@ -106,7 +106,7 @@ pub struct ControllerNode {
     sync: SyncCounter,
     heartbeat_every: u32,
     status_every: u32,
-    last_fault_state: Vec<(FaultState, u16)>,
+    last_fault_state: Vec<(FaultState, u16, u16)>,
     announce_reset: Vec<bool>,
     counters: NodeCounters,
     latency_max_s: f64,
@@ -127,7 +127,7 @@ impl ControllerNode {
         Ok(Self {
             node_id: config.node.node_id,
             state: NmtState::Initialising,
-            last_fault_state: vec![(FaultState::Ok, 0); axes.len()],
+            last_fault_state: vec![(FaultState::Ok, 0, 0); axes.len()],
             announce_reset: vec![false; axes.len()],
             axes,
             sync: SyncCounter::default(),
@@ -347,7 +347,7 @@ impl ControllerNode {
         // An EMCY "error reset" goes out with the next cycle's frames for each axis that had faults.
         for (index, axis) in self.axes.iter().enumerate() {
             if (axis_node == 0 || axis.actuator_node_id == axis_node)
-                && self.last_fault_state[index].0 == FaultState::Fault
+                && self.last_fault_state[index].0 != FaultState::Ok
             {
                 self.announce_reset[index] = true;
             }
@@ -377,6 +377,10 @@ impl ControllerNode {
             let axis = &mut self.axes[index];
             axis.schedule(now_s);
             timer.mark(Stage::Scheduling);
+            axis.estimate();
+            timer.mark(Stage::Estimation);
+            axis.observe();
+            timer.mark(Stage::Observer);
             let supervision = axis.supervise(now_s);
             timer.mark(Stage::Supervision);
             let step = axis.control(supervision);
@@ -403,7 +407,8 @@ impl ControllerNode {
             }
             for kind in step.supervision.raised.iter() {
                 self.counters.faults_raised += 1;
-                send(&Emcy::raised(node, kind, step.supervision.latched).encode(self.node_id));
+                let emcy = step.emcy(Emcy::raised(node, kind, step.supervision.latched));
+                send(&emcy.encode(self.node_id));
                 record(Record::Event(Event::FaultRaised {
                     t_s: now_s,
                     axis_node_id: node,
@@ -411,24 +416,36 @@ impl ControllerNode {
                     cycle,
                 }));
             }
-            let now_state = (step.supervision.state, step.supervision.latched.0);
+            for fault in step.supervised_raised() {
+                self.counters.faults_raised += 1;
+                let emcy = step.emcy(Emcy::supervised(node, fault, step.supervision.latched));
+                send(&emcy.encode(self.node_id));
+                record(Record::Event(Event::Diagnosed {
+                    t_s: now_s,
+                    axis_node_id: node,
+                    fault,
+                    confidence: step.model.confidence,
+                    state: step.supervision.state,
+                    cycle,
+                }));
+            }
+            let now_state = (
+                step.supervision.state,
+                step.supervision.latched.0,
+                step.model.machine.latched.0,
+            );
             let last = self.last_fault_state[index];
             if std::mem::take(&mut self.announce_reset[index]) {
                 send(&Emcy::reset(node).encode(self.node_id));
             }
             if operational && (status_due || now_state != last) {
-                send(&fault_state_frame(node, &step).encode(self.node_id));
+                send(&step.fault_state(node).encode(self.node_id));
+                send(&step.fault_diagnosis(node).encode(self.node_id));
             }
             self.last_fault_state[index] = now_state;
             if operational && status_due {
-                send(
-                    &TunedParametersPdo {
-                        axis_node_id: node,
-                        friction_compensation_v: step.friction_compensation,
-                        gain_schedule_factor: 1.0,
-                    }
-                    .encode(self.node_id),
-                );
+                send(&step.tuned_parameters(node).encode(self.node_id));
+                send(&step.tuned_gains(node).encode(self.node_id));
             }
             timer.mark(Stage::EncodeSend);
             let mut rec = cycle_record(now_s, cycle, node, axis, &step, timing);
@@ -480,15 +497,6 @@ impl ControllerNode {
     }
 }
 
-fn fault_state_frame(node: u8, step: &AxisStep) -> FaultStatePdo {
-    FaultStatePdo {
-        axis_node_id: node,
-        state: step.supervision.state,
-        flags: step.supervision.latched.union(step.supervision.pending),
-        following_error: step.following_error,
-    }
-}
-
 fn cycle_record(
     t_s: f64,
     cycle: u64,
@@ -517,11 +525,38 @@ fn cycle_record(
         following_error: step.following_error,
         fault_state: step.supervision.state.code(),
         fault_flags: step.supervision.latched.0,
+        supervised_faults: step.model.machine.latched.0,
+        diagnosed_fault: crate::canopen::diagnosed_fault_code(step.model.diagnosed_fault),
+        diagnosis_confidence: step.model.confidence,
+        symptoms: step.model.symptoms.map(|s| match s {
+            crate::supervise::Symptom::Minus => -1,
+            crate::supervise::Symptom::Zero => 0,
+            crate::supervise::Symptom::Plus => 1,
+        }),
+        friction_compensation_pos: step.tuned.friction_compensation_pos,
+        friction_compensation_neg: step.tuned.friction_compensation_neg,
+        gain_schedule_factor: step.tuned.gain_schedule_factor,
+        dither: step.tuned.dither,
+        gain_down: step.tuned.gain_down_per_m,
+        gain_up: step.tuned.gain_up_per_m,
+        drive_gain_down: step.tuned.drive_gain_down_m_per_s,
+        drive_gain_up: step.tuned.drive_gain_up_m_per_s,
+        // JSON has no NaN: a direction not seen yet is recorded as 0.
+        observer_x4_pos: finite_or_zero(step.tuned.observer_x4_pos),
+        observer_x4_neg: finite_or_zero(step.tuned.observer_x4_neg),
         sensor_fresh: step.sensor_fresh,
         wake_latency: timing.wake_latency_s,
         // Stamped by the cycle thread once the command is out.
         cycle_latency: 0.0,
         sensor_to_command: 0.0,
         stage_ns: [0; STAGES],
+    }
+}
+
+fn finite_or_zero(v: f64) -> f64 {
+    if v.is_finite() {
+        v
+    } else {
+        0.0
     }
 }

@@ -4,11 +4,12 @@
 use super::node::STAGES;
 use crate::bus::{BusErrorFrame, Frame};
 use crate::canopen::{DecodeError, NmtState};
-use crate::supervise::FaultKind;
+use crate::supervise::{FaultKind, FaultState, SupervisedFault};
 use serde::{Deserialize, Serialize};
 
 /// One axis in one cycle. Field names are the protocol's signal names (`dbc/actuatord.dbc`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(default)]
 pub struct CycleRecord {
     /// Seconds since the cycle started (the cycle's release time, not when it ran).
     pub t_s: f64,
@@ -27,6 +28,28 @@ pub struct CycleRecord {
     pub following_error: f64,
     pub fault_state: u8,
     pub fault_flags: u16,
+    /// Latched supervised faults, bit per `supervise::SupervisedFault` in its order.
+    pub supervised_faults: u16,
+    /// 0 none, else the latest latched supervised fault (codes of the DBC value table).
+    pub diagnosed_fault: u8,
+    pub diagnosis_confidence: f64,
+    /// -1, 0, +1 per `[T_I, D, ω0, K_P, F_C, F_0]` from the last estimation window.
+    pub symptoms: [i8; 6],
+    /// `U_comp+`, `U_comp-` in use or learned, command unit.
+    pub friction_compensation_pos: f64,
+    pub friction_compensation_neg: f64,
+    pub gain_schedule_factor: f64,
+    /// Dither added this cycle, command unit.
+    pub dither: f64,
+    /// Direction P gains in use, duty per m.
+    pub gain_down: f64,
+    pub gain_up: f64,
+    /// Estimated drive gains `K_I1`, `K_I2`, m/s.
+    pub drive_gain_down: f64,
+    pub drive_gain_up: f64,
+    /// Smoothed observer `x4` per direction, m (0 until the direction has been seen).
+    pub observer_x4_pos: f64,
+    pub observer_x4_neg: f64,
     /// The sensor frame of this cycle arrived before the sensor deadline.
     pub sensor_fresh: bool,
     /// Wake-up delay after the release time, s.
@@ -53,6 +76,15 @@ pub enum Event {
         t_s: f64,
         axis_node_id: u8,
         kind: FaultKind,
+        cycle: u64,
+    },
+    /// The fault machine latched a model-based finding (diagnosis, observer, estimator).
+    Diagnosed {
+        t_s: f64,
+        axis_node_id: u8,
+        fault: SupervisedFault,
+        confidence: f64,
+        state: FaultState,
         cycle: u64,
     },
     FaultsReset {
@@ -108,6 +140,7 @@ impl Event {
         match *self {
             Event::Started { .. } => 0.0,
             Event::FaultRaised { t_s, .. }
+            | Event::Diagnosed { t_s, .. }
             | Event::FaultsReset { t_s, .. }
             | Event::Malformed { t_s, .. }
             | Event::UnknownFrame { t_s, .. }
@@ -123,6 +156,7 @@ impl Event {
         match self {
             Event::Started { .. } => "started",
             Event::FaultRaised { .. } => "fault_raised",
+            Event::Diagnosed { .. } => "diagnosed",
             Event::FaultsReset { .. } => "faults_reset",
             Event::Malformed { .. } => "frame_malformed",
             Event::UnknownFrame { .. } => "frame_unknown",
@@ -166,6 +200,19 @@ impl std::fmt::Display for Event {
             } => write!(
                 f,
                 "t={t_s:.4}s axis {axis_node_id}: fault {kind} raised (cycle {cycle}), axis to safe state"
+            ),
+            Event::Diagnosed {
+                t_s,
+                axis_node_id,
+                fault,
+                confidence,
+                state,
+                cycle,
+            } => write!(
+                f,
+                "t={t_s:.4}s axis {axis_node_id}: {} latched (cycle {cycle}, confidence {confidence:.2}), state {}",
+                fault.name(),
+                state.name()
             ),
             Event::FaultsReset { t_s, axis_node_id } => {
                 write!(f, "t={t_s:.4}s axis {axis_node_id}: faults reset")

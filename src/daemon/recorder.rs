@@ -39,8 +39,22 @@ const CYCLE_SCHEMA: &str = r#"{
     "command_duty": {"type": "number", "description": "signed valve duty, -1..1"},
     "friction_compensation": {"type": "number", "description": "command unit"},
     "following_error": {"type": "number", "description": "setpoint - position, m"},
-    "fault_state": {"type": "integer", "description": "0 ok, 1 warning, 2 fault"},
+    "fault_state": {"type": "integer", "description": "0 ok, 1 warning, 2 fail_safe, 3 maintenance_requested"},
     "fault_flags": {"type": "integer", "description": "bit per fault, order as in the DBC"},
+    "supervised_faults": {"type": "integer", "description": "latched supervised faults, bit per fault: spring_pretension, spring_stiffness, friction_increase, current_gain, observer_friction, estimator_implausible, limit_violation"},
+    "diagnosed_fault": {"type": "integer", "description": "0 none, else 1 + bit of the latest latched supervised fault"},
+    "diagnosis_confidence": {"type": "number", "description": "0..1"},
+    "symptoms": {"type": "array", "items": {"type": "integer"}, "description": "-1, 0, +1 per T_I, D, omega0, K_P, F_C, F_0"},
+    "friction_compensation_pos": {"type": "number", "description": "U_comp+, command unit"},
+    "friction_compensation_neg": {"type": "number", "description": "U_comp-, command unit"},
+    "gain_schedule_factor": {"type": "number"},
+    "dither": {"type": "number", "description": "command unit"},
+    "gain_down": {"type": "number", "description": "direction P gain q01, 1/m"},
+    "gain_up": {"type": "number", "description": "direction P gain q02, 1/m"},
+    "drive_gain_down": {"type": "number", "description": "estimated K_I1, m/s"},
+    "drive_gain_up": {"type": "number", "description": "estimated K_I2, m/s"},
+    "observer_x4_pos": {"type": "number", "description": "smoothed observer x4 moving in +, m (0 until seen)"},
+    "observer_x4_neg": {"type": "number", "description": "smoothed observer x4 moving in -, m (0 until seen)"},
     "sensor_fresh": {"type": "boolean"},
     "wake_latency": {"type": "number", "description": "s"},
     "cycle_latency": {"type": "number", "description": "release to command sent, s"},
@@ -320,7 +334,10 @@ pub fn read_cycles(path: &Path) -> Result<Vec<CycleRecord>, RecorderError> {
 
 fn log_event(e: &Event) {
     match e {
-        Event::FaultRaised { .. } | Event::Overrun { .. } | Event::BusError { .. } => {
+        Event::FaultRaised { .. }
+        | Event::Diagnosed { .. }
+        | Event::Overrun { .. }
+        | Event::BusError { .. } => {
             tracing::warn!(kind = e.kind(), "{e}")
         }
         Event::Malformed { .. } => tracing::warn!(kind = e.kind(), "{e}"),

@@ -98,16 +98,20 @@ impl std::fmt::Display for FaultFlags {
     }
 }
 
-/// The axis fault state published on the bus.
+/// The axis fault state published on the bus. The codes keep their first meaning (2 is still
+/// "axis in its safe state") so older decoders stay right; 3 was added with the fault machine.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum FaultState {
-    /// All limits respected.
+    /// All limits respected, nothing latched.
     #[default]
     Ok,
-    /// A limit is exceeded but not yet for its persistence time.
+    /// A limit is exceeded but not yet for its persistence time, or a fault whose reaction is
+    /// "warning" is latched.
     Warning,
-    /// A fault is latched: the axis is in its safe state until a reset.
+    /// Fail-safe: a fault with that reaction is latched, the axis is in its safe state until a reset.
     Fault,
+    /// A fault whose reaction is "maintenance_requested" is latched; the axis keeps working.
+    MaintenanceRequested,
 }
 
 impl FaultState {
@@ -116,6 +120,7 @@ impl FaultState {
             FaultState::Ok => 0,
             FaultState::Warning => 1,
             FaultState::Fault => 2,
+            FaultState::MaintenanceRequested => 3,
         }
     }
 
@@ -124,15 +129,28 @@ impl FaultState {
             0 => Some(FaultState::Ok),
             1 => Some(FaultState::Warning),
             2 => Some(FaultState::Fault),
+            3 => Some(FaultState::MaintenanceRequested),
             _ => None,
         }
     }
 
+    /// The name in the DBC value table and the configuration's reactions.
     pub fn name(self) -> &'static str {
         match self {
             FaultState::Ok => "ok",
             FaultState::Warning => "warning",
-            FaultState::Fault => "fault",
+            FaultState::Fault => "fail_safe",
+            FaultState::MaintenanceRequested => "maintenance_requested",
+        }
+    }
+
+    /// Severity order: ok < warning < maintenance_requested < fail_safe.
+    pub fn severity(self) -> u8 {
+        match self {
+            FaultState::Ok => 0,
+            FaultState::Warning => 1,
+            FaultState::MaintenanceRequested => 2,
+            FaultState::Fault => 3,
         }
     }
 }

@@ -1,0 +1,368 @@
+//! The intelligent-actuator features wired into the daemon: the controller node and a simulated
+//! node in lock-step, every frame through the codec, deterministic for the plant files' seeds.
+
+use actuatord::bus::Frame;
+use actuatord::canopen::{
+    messages, Emcy, FaultDiagnosisPdo, FaultResetPdo, FaultStatePdo, TunedGainsPdo,
+    TunedParametersPdo,
+};
+use actuatord::daemon::config::{Config, SetpointStep};
+use actuatord::daemon::node::CycleTiming;
+use actuatord::daemon::record::{CycleRecord, Record};
+use actuatord::daemon::ControllerNode;
+use actuatord::simnode::SimNode;
+use actuatord::supervise::{FaultState, SupervisedFault};
+use std::path::Path;
+
+struct Rig {
+    controller: ControllerNode,
+    sim: SimNode,
+    period_s: f64,
+    k: u64,
+    sent: Vec<(u64, Frame)>,
+    records: Vec<CycleRecord>,
+}
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn config(name: &str, edit: &str) -> Config {
+    let path = root().join("config").join(name);
+    let text = std::fs::read_to_string(&path).expect("shipped config") + edit;
+    Config::from_toml(&text, &path).expect("valid config")
+}
+
+fn step(at_s: f64, position_m: f64) -> SetpointStep {
+    SetpointStep { at_s, position_m }
+}
+
+impl Rig {
+    fn new(config: &Config, plant: &str, faults: &[&str]) -> Self {
+        let plant = actuatord::physics::load_plant(&root().join("config/plants").join(plant))
+            .expect("shipped plant");
+        let faults = faults.iter().map(|f| f.parse().expect("fault")).collect();
+        let period_s = config.cycle.period_s;
+        let mut rig = Rig {
+            controller: ControllerNode::new(config).expect("controller"),
+            sim: SimNode::new(16, plant, period_s, faults),
+            period_s,
+            k: 0,
+            sent: vec![],
+            records: vec![],
+        };
+        let mut to_sim = vec![];
+        rig.sim.boot(&mut |_| {});
+        rig.controller.boot(&mut |f| to_sim.push(*f), &mut |_| {});
+        rig.deliver(&to_sim);
+        rig
+    }
+
+    fn deliver(&mut self, frames: &[Frame]) -> Vec<Frame> {
+        let mut answers = vec![];
+        for f in frames {
+            self.sim.handle(f, &mut |a| answers.push(*a), &mut |_| {});
+        }
+        answers
+    }
+
+    fn cycle(&mut self) {
+        let t = self.k as f64 * self.period_s;
+        if self.k % ((0.1 / self.period_s).round() as u64).max(1) == 0 {
+            let hb = self.sim.heartbeat();
+            self.controller.handle(&hb, t, &mut |_| {});
+        }
+        self.controller.begin_cycle();
+        let sync = self.controller.sync_frame();
+        for a in self.deliver(&[sync]) {
+            self.controller.handle(&a, t, &mut |_| {});
+        }
+        let mut out = vec![];
+        let records = &mut self.records;
+        self.controller
+            .finish_cycle(t, CycleTiming::default(), &mut |f| out.push(*f), &mut |r| {
+                if let Record::Cycle(c) = r {
+                    records.push(c)
+                }
+            });
+        self.deliver(&out);
+        self.sent.extend(out.into_iter().map(|f| (self.k, f)));
+        self.k += 1;
+    }
+
+    fn run_until(&mut self, t_s: f64) {
+        while (self.k as f64) * self.period_s < t_s - 1e-9 {
+            self.cycle();
+        }
+    }
+
+    fn inject(&mut self, frame: Frame) {
+        let t = self.k as f64 * self.period_s;
+        self.controller.handle(&frame, t, &mut |_| {});
+    }
+
+    fn frames<T>(&self, id: u32, decode: fn(&Frame) -> T) -> Vec<(u64, T)> {
+        self.sent
+            .iter()
+            .filter(|(_, f)| f.id() == id)
+            .map(|(k, f)| (*k, decode(f)))
+            .collect()
+    }
+
+    fn emcys(&self) -> Vec<(u64, Emcy)> {
+        self.frames(messages::EMCY.cob_id(1), |f| {
+            Emcy::decode(f).expect("emcy decodes")
+        })
+    }
+
+    fn last_fault_state(&self) -> FaultStatePdo {
+        self.frames(messages::FAULT_STATE.cob_id(1), |f| {
+            FaultStatePdo::decode(f).expect("decodes")
+        })
+        .last()
+        .map(|(_, s)| *s)
+        .expect("fault_state sent")
+    }
+
+    fn last_diagnosis(&self) -> FaultDiagnosisPdo {
+        self.frames(messages::FAULT_DIAGNOSIS.cob_id(1), |f| {
+            FaultDiagnosisPdo::decode(f).expect("decodes")
+        })
+        .last()
+        .map(|(_, s)| *s)
+        .expect("fault_diagnosis sent")
+    }
+}
+
+/// The demo's script of small and large steps (src/demo), friction x3 at 5 s.
+fn demo_setpoints(c: &mut Config) {
+    c.axis[0].setpoints = vec![
+        step(0.0, 0.005),
+        step(1.0, 0.0052),
+        step(2.0, 0.0050),
+        step(3.0, 0.015),
+        step(4.0, 0.010),
+        step(5.5, 0.0102),
+        step(6.5, 0.0100),
+        step(7.5, 0.018),
+        step(8.5, 0.006),
+    ];
+}
+
+#[test]
+fn a_friction_rise_is_caught_by_the_observer_and_announced_on_the_bus() {
+    let mut c = config("solenoid.toml", "");
+    demo_setpoints(&mut c);
+    let mut rig = Rig::new(&c, "solenoid.toml", &["friction_x3@5s"]);
+    rig.run_until(5.0);
+    assert!(
+        rig.last_diagnosis().observer_learned,
+        "bands learned before the fault"
+    );
+    assert_eq!(rig.last_fault_state().state, FaultState::Ok);
+    rig.run_until(9.5);
+    let (k, e) = rig
+        .emcys()
+        .into_iter()
+        .find(|(_, e)| e.error_code == 0xFF15)
+        .expect("an EMCY for the observer's friction finding");
+    assert!(k as f64 * rig.period_s > 5.0, "only after the fault");
+    assert_eq!(e.diagnosed_fault, Some(SupervisedFault::ObserverFriction));
+    assert_eq!(e.state, FaultState::MaintenanceRequested);
+    assert!(e.supervised.contains(SupervisedFault::ObserverFriction));
+    let s = rig.last_fault_state();
+    assert_eq!(s.state, FaultState::MaintenanceRequested);
+    assert_eq!(s.diagnosed_fault, Some(SupervisedFault::ObserverFriction));
+    let d = rig.last_diagnosis();
+    assert!(d.latched.contains(SupervisedFault::ObserverFriction));
+    // Maintenance requested: the axis keeps working (not the safe 0 V).
+    assert!(rig.records.last().map_or(0.0, |r| r.command_voltage) > 1.0);
+}
+
+#[test]
+fn without_a_fault_the_observer_stays_quiet() {
+    let mut c = config("solenoid.toml", "");
+    demo_setpoints(&mut c);
+    let mut rig = Rig::new(&c, "solenoid.toml", &[]);
+    rig.run_until(9.5);
+    assert!(rig.emcys().is_empty(), "{:?}", rig.emcys());
+    assert_eq!(rig.last_fault_state().state, FaultState::Ok);
+}
+
+#[test]
+fn reactions_are_configurable_and_latch_until_reset() {
+    let mut c = config(
+        "solenoid.toml",
+        "\n[axis.fault_reactions]\nobserver_friction = \"fail_safe\"\n",
+    );
+    demo_setpoints(&mut c);
+    let mut rig = Rig::new(&c, "solenoid.toml", &["friction_x3@5s"]);
+    rig.run_until(9.5);
+    let s = rig.last_fault_state();
+    assert_eq!(s.state, FaultState::Fault, "fail_safe as configured");
+    assert_eq!(rig.records.last().map(|r| r.command_voltage), Some(0.0));
+    // Latched: it stays through the rest of the run; a reset clears it (the axis, back from its
+    // rest stop, is then at most "warning" for its following error).
+    rig.inject(FaultResetPdo { axis_node_id: 16 }.encode(1));
+    rig.cycle();
+    let s = rig.last_fault_state();
+    assert_ne!(s.state, FaultState::Fault);
+    assert_eq!(s.diagnosed_fault, None);
+    assert!(rig.emcys().iter().any(|(_, e)| e.error_code == 0));
+
+    let mut c = config(
+        "solenoid.toml",
+        "\n[axis.fault_reactions]\nobserver_friction = \"warning\"\n",
+    );
+    demo_setpoints(&mut c);
+    let mut rig = Rig::new(&c, "solenoid.toml", &["friction_x3@5s"]);
+    rig.run_until(9.5);
+    assert_eq!(rig.last_fault_state().state, FaultState::Warning);
+    assert!(rig.records.last().map_or(0.0, |r| r.command_voltage) > 1.0);
+}
+
+/// A tour of steps every 0.25 s between 4 and 12 mm: the excitation the estimation windows need.
+fn tour(c: &mut Config, seconds: f64) {
+    let t = [
+        0.004, 0.009, 0.006, 0.011, 0.005, 0.010, 0.007, 0.012, 0.0045, 0.0085,
+    ];
+    let n = (seconds / 0.25) as usize;
+    c.axis[0].setpoints = (0..n)
+        .map(|i| step(0.25 * i as f64, t[i % t.len()]))
+        .collect();
+    c.axis[0].initial_setpoint_m = 0.004;
+}
+
+#[test]
+fn a_spring_drop_is_diagnosed_as_f2() {
+    let mut c = config("solenoid.toml", "");
+    tour(&mut c, 115.0);
+    let mut rig = Rig::new(&c, "solenoid.toml", &["spring_x0.73@100s"]);
+    rig.run_until(100.0);
+    let d = rig.last_diagnosis();
+    assert!(
+        d.nominal_learned,
+        "nominal learned from the healthy windows"
+    );
+    assert!(rig.emcys().is_empty(), "healthy: {:?}", rig.emcys());
+    rig.run_until(115.0);
+    let s = rig.last_fault_state();
+    assert_eq!(s.diagnosed_fault, Some(SupervisedFault::SpringStiffness));
+    assert_eq!(s.state, FaultState::MaintenanceRequested);
+    let d = rig.last_diagnosis();
+    assert!(d.confidence > 0.6, "{d:?}");
+    assert!(rig.emcys().iter().any(|(_, e)| e.error_code == 0xFF12));
+}
+
+#[test]
+fn adaptive_friction_lowers_the_small_step_offset() {
+    // Small steps around 5 mm, 0.3 s each; mean |e| over the last 50 ms of each.
+    let offset = |edit: &str| {
+        let mut c = config("solenoid.toml", "");
+        if edit == "plain" {
+            c.axis[0].adaptive_friction = None;
+            c.axis[0].friction_compensation = None;
+        }
+        let sizes = [0.1e-3, 0.2e-3, 0.3e-3, 0.15e-3];
+        let mut w = vec![0.005, 0.0053, 0.005, 0.0047, 0.005, 0.0052, 0.0049];
+        for i in 0..24 {
+            let s = if i % 2 == 0 { 1.0 } else { -1.0 };
+            w.push(0.005 + s * sizes[i % 4]);
+        }
+        c.axis[0].setpoints = w
+            .iter()
+            .enumerate()
+            .map(|(i, p)| step(0.3 * i as f64, *p))
+            .collect();
+        let mut rig = Rig::new(&c, "solenoid.toml", &[]);
+        rig.run_until(0.3 * w.len() as f64);
+        let (mut sum, mut n) = (0.0, 0);
+        for r in &rig.records {
+            let phase = (r.t_s / 0.3).fract();
+            if r.t_s > 0.3 * 11.0 && phase > 0.83 {
+                sum += (r.setpoint_position - r.position).abs();
+                n += 1;
+            }
+        }
+        let tuned = rig
+            .frames(messages::TUNED_PARAMETERS.cob_id(1), |f| {
+                TunedParametersPdo::decode(f).expect("decodes")
+            })
+            .last()
+            .map(|(_, t)| *t)
+            .expect("tuned_parameters sent");
+        (sum / f64::from(n), tuned)
+    };
+    let (plain, _) = offset("plain");
+    let (adaptive, tuned) = offset("adaptive");
+    println!(
+        "small-step offset: plain PIDT1 {:.1} um, adaptive {:.1} um",
+        plain * 1e6,
+        adaptive * 1e6
+    );
+    assert!(adaptive < 0.7 * plain, "plain {plain} adaptive {adaptive}");
+    // What was learned is on the bus.
+    assert!(tuned.friction_compensation_pos_v > 0.09, "{tuned:?}");
+    assert!(tuned.friction_compensation_neg_v > 0.09, "{tuned:?}");
+}
+
+/// Steps of 0.5 mm every 1.5 s around 8 mm on the pneumatic drive.
+fn pneumatic_steps(c: &mut Config, seconds: f64) {
+    let n = (seconds / 1.5) as usize;
+    c.axis[0].setpoints = (0..n)
+        .map(|i| step(1.5 * i as f64, if i % 2 == 0 { 0.008 } else { 0.0085 }))
+        .collect();
+    c.axis[0].initial_setpoint_m = 0.008;
+}
+
+fn last_gains(rig: &Rig) -> TunedGainsPdo {
+    rig.frames(messages::TUNED_GAINS.cob_id(1), |f| {
+        TunedGainsPdo::decode(f).expect("decodes")
+    })
+    .last()
+    .map(|(_, g)| *g)
+    .expect("tuned_gains sent")
+}
+
+#[test]
+fn scheduling_picks_other_gains_at_another_supply() {
+    let gains_at = |fault: &[&str]| {
+        let mut c = config("pneumatic.toml", "");
+        c.axis[0].pneumatic_adaptive = None;
+        pneumatic_steps(&mut c, 6.0);
+        let mut rig = Rig::new(&c, "pneumatic.toml", fault);
+        rig.run_until(6.0);
+        last_gains(&rig)
+    };
+    let nominal = gains_at(&[]);
+    // supply_x0.5: half the pressure difference to atmosphere, a weaker drive: larger gains.
+    let low = gains_at(&["supply_x0.5@0s"]);
+    println!("scheduled q01/q02: nominal {nominal:?}, supply_x0.5 {low:?}");
+    assert!(nominal.gain_down_per_m > 0.0 && nominal.gain_up_per_m > 0.0);
+    assert!(
+        (low.gain_down_per_m - nominal.gain_down_per_m).abs() > 0.1 * nominal.gain_down_per_m,
+        "{nominal:?} vs {low:?}"
+    );
+    assert!(!nominal.adapted_down && !nominal.adapted_up);
+}
+
+#[test]
+fn estimated_drive_gains_reach_the_bus_and_follow_the_supply() {
+    let mut c = config("pneumatic.toml", "");
+    pneumatic_steps(&mut c, 60.0);
+    let mut rig = Rig::new(&c, "pneumatic.toml", &["supply_x0.5@30s"]);
+    rig.run_until(30.0);
+    let before = last_gains(&rig);
+    rig.run_until(60.0);
+    let after = last_gains(&rig);
+    println!("K_I estimates: before {before:?}, after {after:?}");
+    assert!(before.drive_gain_down_m_per_s > 0.01 && before.drive_gain_up_m_per_s > 0.01);
+    assert!(before.adapted_down || before.adapted_up, "{before:?}");
+    assert!(
+        (after.drive_gain_down_m_per_s - before.drive_gain_down_m_per_s).abs()
+            > 0.1 * before.drive_gain_down_m_per_s
+            || (after.drive_gain_up_m_per_s - before.drive_gain_up_m_per_s).abs()
+                > 0.1 * before.drive_gain_up_m_per_s,
+        "{before:?} -> {after:?}"
+    );
+}
