@@ -16,6 +16,7 @@ pub mod canopen;
 pub mod control;
 pub mod daemon;
 pub mod demo;
+pub mod design;
 pub mod ident;
 pub mod lab;
 pub mod lockstep;

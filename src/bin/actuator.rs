@@ -14,7 +14,10 @@ use std::sync::Arc;
 use std::time::Duration;
 
 #[derive(Parser, Debug)]
-#[command(version, about = "Simulate actuators, run the demo, render the DBC")]
+#[command(
+    version,
+    about = "The engineer's tool: simulated actuator nodes, the demo, the model lab, controller design, benchmarks"
+)]
 struct Args {
     #[command(subcommand)]
     command: Command,
@@ -75,6 +78,14 @@ enum Command {
         #[command(subcommand)]
         what: BenchCommand,
     },
+    /// Controller design from a plant file.
+    Design {
+        #[command(subcommand)]
+        what: DesignCommand,
+    },
+    /// The model lab: compare, diagnose, fit, report.
+    #[command(flatten)]
+    Lab(actuatord::lab::cli::LabCommand),
     /// Print the DBC of the protocol for the given node ids (dbc/actuatord.dbc is 1 and 16).
     Dbc {
         #[arg(long, default_value_t = 1)]
@@ -85,7 +96,28 @@ enum Command {
 }
 
 #[derive(Subcommand, Debug)]
+enum DesignCommand {
+    /// H-infinity mixed-sensitivity controller for a motor_gear plant (Bao et al. 2016),
+    /// reduced and discretised for the cycle, written as a state-space controller file.
+    Robust {
+        #[arg(long, default_value = "config/plants/motor_gear.toml")]
+        plant: PathBuf,
+        #[arg(long, default_value = "controller.toml")]
+        out: PathBuf,
+    },
+}
+
+#[derive(Subcommand, Debug)]
 enum BenchCommand {
+    /// PID + friction compensation against the robust controller on the simulated motor_gear
+    /// plant: sinusoids at 2 and 20 Hz, two amplitudes, bandwidth, beside the paper's figures.
+    Robust {
+        #[arg(long, default_value = "config/plants/motor_gear.toml")]
+        plant: PathBuf,
+        /// Print JSON (a list of rows) instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
     /// The papers' experiments on the simulated plants, beside the papers' figures.
     Paper {
         /// Print JSON (a list of rows) instead of a table.
@@ -243,6 +275,31 @@ fn run(args: Args) -> anyhow::Result<()> {
             );
             let summary = actuatord::demo::run(&config, &plant, &script, &record)?;
             println!("{summary}");
+            Ok(())
+        }
+        Command::Lab(cmd) => actuatord::lab::cli::run(cmd),
+        Command::Design {
+            what: DesignCommand::Robust { plant, out },
+        } => {
+            let design = actuatord::design::design_robust(&plant)?;
+            println!("{design}");
+            actuatord::design::write_controller_toml(&design, &out)?;
+            println!("controller written to {}", out.display());
+            Ok(())
+        }
+        Command::Bench {
+            what: BenchCommand::Robust { plant, json },
+        } => {
+            let design = actuatord::design::design_robust(&plant)?;
+            let rows = actuatord::design::run_comparison(
+                &design,
+                &actuatord::design::ComparisonConfig::default(),
+            )?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&rows)?);
+            } else {
+                println!("{}", actuatord::design::ComparisonTable(&rows));
+            }
             Ok(())
         }
         Command::Bench {

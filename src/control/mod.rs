@@ -5,6 +5,8 @@ mod friction_ff;
 
 pub use discrete::{ControllerError, DiscreteController, MAX_ORDER};
 pub use friction_ff::FrictionFeedForward;
+pub mod robust;
+
 mod adaptive_friction;
 mod adaptive_pneumatic;
 mod direction_p;

@@ -1,1 +1,39 @@
-//! placeholder
+//! The model lab: compare a model with measurements, see where it fails, learn which physical
+//! effect is missing, add it and watch the error fall.
+//!
+//! ```text
+//! MCAP or CSV ─▶ data ─▶ model (family + effects) ─▶ compare (free_run, k_step, inverse_dynamics)
+//!             ─▶ residuals ─▶ regimes + residual tests ─▶ diagnose (which effect is missing)
+//!             ─▶ fit (add it, refit) ─▶ report (plots, before/after)
+//! ```
+//!
+//! | file | job |
+//! |---|---|
+//! | [`data`] | CSV and MCAP data sets, column mapping, errors with file/row/column |
+//! | [`model`] | model files (`config/models/*.toml`) and `--family F --with a,b` |
+//! | [`signals`] | zero-phase filtering and derivatives for the regression |
+//! | [`regress`] | inverse-dynamics regression: the balance of forces, linear in its parameters |
+//! | [`compare`] | prediction modes and the fit / NRMSE / RMSE of a model |
+//! | [`regimes`] | error by regime and residual tests: where a model fails |
+//! | [`diagnose`] | candidate effects, their refit, penalised ranking and verdict |
+//! | [`report`] | HTML page with SVG plots |
+//! | [`cli`] | the `actuator compare / diagnose / fit / report` commands |
+//!
+//! The lab uses the physics and identification layers and reads the daemon's recordings; it
+//! never uses the runtime otherwise.
+
+pub mod cli;
+pub mod compare;
+pub mod data;
+pub mod diagnose;
+pub mod model;
+pub mod regimes;
+pub mod regress;
+pub mod report;
+pub mod signals;
+mod svg;
+
+pub use compare::{compare, Comparison, Mode};
+pub use data::{Columns, Dataset};
+pub use diagnose::{diagnose, Candidate, DiagnoseOptions, Diagnosis};
+pub use model::Model;

@@ -1,0 +1,378 @@
+//! The lab's command line: `actuator compare | diagnose | fit | report`.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use clap::{Args, Subcommand};
+
+use super::compare::{compare, default_mode, id_comparison, Mode};
+use super::data::{load, Columns, Dataset};
+use super::diagnose::{diagnose, DiagnoseOptions};
+use super::model::Model;
+use super::regimes::breakdown;
+use super::regress::fit_spec;
+use super::signals::{prepare, Prepared};
+
+/// Where the data is and which columns hold what.
+#[derive(Debug, Clone, Args)]
+pub struct DataArgs {
+    /// Data file: CSV with a header row, or an MCAP recording of the daemon.
+    #[arg(long)]
+    pub data: PathBuf,
+    /// CSV column with the time in s.
+    #[arg(long, default_value = "time")]
+    pub time: String,
+    /// CSV column with the command.
+    #[arg(long, default_value = "u")]
+    pub input: String,
+    /// CSV column with the measured position.
+    #[arg(long, default_value = "y")]
+    pub output: String,
+    /// CSV column with the supply (V or Pa); default `supply` when present.
+    #[arg(long)]
+    pub supply: Option<String>,
+    /// CSV column with the current (A); default `i` when present.
+    #[arg(long)]
+    pub current: Option<String>,
+    /// Corner of the zero-phase filter for derivatives, Hz (default: a tenth of the sample rate,
+    /// at most 50 Hz).
+    #[arg(long)]
+    pub cutoff_hz: Option<f64>,
+}
+
+/// Which model.
+#[derive(Debug, Clone, Args)]
+pub struct ModelArgs {
+    /// Model file (`config/models/*.toml`).
+    #[arg(long, conflicts_with = "family")]
+    pub model: Option<PathBuf>,
+    /// Plant family: linear_axis, solenoid, pneumatic, motor_gear.
+    #[arg(long)]
+    pub family: Option<String>,
+    /// Effects to add to the family, comma separated.
+    #[arg(long, value_delimiter = ',', requires = "family")]
+    pub with: Vec<String>,
+}
+
+/// The lab's commands.
+#[derive(Debug, Clone, Subcommand)]
+pub enum LabCommand {
+    /// Compare a model with measurements: fit %, NRMSE, RMSE, error by regime, residual tests.
+    Compare {
+        #[command(flatten)]
+        data: DataArgs,
+        #[command(flatten)]
+        model: ModelArgs,
+        /// Prediction mode (default: inverse_dynamics; free_run for motor_gear).
+        #[arg(long, value_enum)]
+        mode: Option<Mode>,
+        /// Horizon of k_step in samples.
+        #[arg(long, default_value_t = 10)]
+        k: usize,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Name the effect most likely missing from a model, with evidence.
+    Diagnose {
+        #[command(flatten)]
+        data: DataArgs,
+        #[command(flatten)]
+        model: ModelArgs,
+        /// Smallest relative NRMSE drop that counts, in and out of sample.
+        #[arg(long, default_value_t = 0.05)]
+        min_improvement: f64,
+        /// Print the JSON contract.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Fit the free parameters and write the updated model file.
+    Fit {
+        #[command(flatten)]
+        data: DataArgs,
+        #[command(flatten)]
+        model: ModelArgs,
+        /// Where to write the fitted model.
+        #[arg(long)]
+        out: PathBuf,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Write an HTML report with plots for one or more models (before/after).
+    Report {
+        #[command(flatten)]
+        data: DataArgs,
+        /// Model files; give several to compare before and after.
+        #[arg(long, required = true)]
+        model: Vec<PathBuf>,
+        /// Prediction mode.
+        #[arg(long, value_enum, default_value = "inverse_dynamics")]
+        mode: Mode,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+fn load_data(a: &DataArgs) -> anyhow::Result<(Dataset, Prepared)> {
+    let cols = Columns {
+        time: a.time.clone(),
+        input: a.input.clone(),
+        output: a.output.clone(),
+        supply: Some(a.supply.clone().unwrap_or_else(|| "supply".into())),
+        current: Some(a.current.clone().unwrap_or_else(|| "i".into())),
+    };
+    let data = load(&a.data, &cols)?;
+    if let Some(fc) = a.cutoff_hz {
+        if !(fc > 0.0 && fc.is_finite()) {
+            anyhow::bail!("--cutoff-hz must be > 0, got {fc}");
+        }
+    }
+    let prep = prepare(&data, a.cutoff_hz);
+    Ok((data, prep))
+}
+
+fn load_model(a: &ModelArgs) -> anyhow::Result<Model> {
+    match (&a.model, &a.family) {
+        (Some(p), _) => Model::load(p),
+        (None, Some(f)) => Model::from_names(f, &a.with),
+        (None, None) => anyhow::bail!("give a model: --model FILE or --family F [--with a,b]"),
+    }
+}
+
+fn progress_bar(total: usize) -> Option<indicatif::ProgressBar> {
+    if !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let pb = indicatif::ProgressBar::new(total as u64);
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}") {
+        pb.set_style(style);
+    }
+    Some(pb)
+}
+
+/// Run a lab command and print its result.
+pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
+    match cmd {
+        LabCommand::Compare {
+            data,
+            model,
+            mode,
+            k,
+            json,
+        } => {
+            let (d, prep) = load_data(&data)?;
+            let m = load_model(&model)?;
+            let mode = mode.unwrap_or_else(|| default_mode(&m));
+            let c = compare(&m, &d, &prep, mode, k)?;
+            let b = breakdown(&c, &d, &prep);
+            if json {
+                let out = serde_json::json!({
+                    "mode": c.mode.name(), "quantity": c.quantity, "unit": c.unit,
+                    "fit": c.fit, "nrmse": c.nrmse, "rmse": c.rmse, "samples": c.index.len(),
+                    "note": c.note, "regimes": b.regimes, "tests": b.tests, "worst": b.worst,
+                });
+                println!("{}", serde_json::to_string_pretty(&out)?);
+                return Ok(());
+            }
+            println!("model {} on {} ({} samples)", m.name, d.origin, d.len());
+            println!(
+                "mode {}: {} fit {:.1} %, NRMSE {:.4}, RMSE {:.3e} {}  ({})",
+                c.mode, c.quantity, c.fit, c.nrmse, c.rmse, c.unit, c.note
+            );
+            println!("\nerror by regime:");
+            println!(
+                "  {:<10} {:<42} {:>8} {:>11} {:>11} {:>6}",
+                "group", "regime", "samples", "RMSE", "mean", "share"
+            );
+            for r in &b.regimes {
+                println!(
+                    "  {:<10} {:<42} {:>8} {:>11.3e} {:>+11.3e} {:>5.1}%",
+                    r.group,
+                    r.label,
+                    r.samples,
+                    r.rmse,
+                    r.mean,
+                    100.0 * r.share
+                );
+            }
+            println!("\nresidual tests (95 % bounds):");
+            for t in &b.tests {
+                println!(
+                    "  {:<32} {:>8.3} (bound {:.3}, lag {:>3})  {}",
+                    t.name,
+                    t.value,
+                    t.bound,
+                    t.lag,
+                    if t.pass { "pass" } else { "FAIL" }
+                );
+            }
+            println!("\n{}", b.worst);
+            Ok(())
+        }
+        LabCommand::Diagnose {
+            data,
+            model,
+            min_improvement,
+            json,
+        } => {
+            let (d, prep) = load_data(&data)?;
+            let m = load_model(&model)?;
+            let opts = DiagnoseOptions {
+                min_improvement,
+                ..DiagnoseOptions::default()
+            };
+            let pb = std::sync::Mutex::new(None::<indicatif::ProgressBar>);
+            let progress = |done: usize, total: usize, name: &str| {
+                if let Ok(mut g) = pb.lock() {
+                    if g.is_none() {
+                        *g = progress_bar(total);
+                    }
+                    if let Some(p) = g.as_ref() {
+                        p.set_position(done as u64);
+                        p.set_message(name.to_string());
+                    }
+                }
+            };
+            let dg = diagnose(&m, &d, &prep, &opts, &progress)?;
+            if let Ok(g) = pb.lock() {
+                if let Some(p) = g.as_ref() {
+                    p.finish_and_clear();
+                }
+            }
+            if json {
+                println!("{}", serde_json::to_string_pretty(&dg.to_json())?);
+                return Ok(());
+            }
+            println!(
+                "model {} on {}: mode {}, NRMSE {:.4} (free parameters refitted), {} moving samples (N_eff {:.0})",
+                m.name, d.origin, dg.mode, dg.nrmse_base, dg.samples, dg.effective_samples
+            );
+            println!(
+                "\n  {:<20} {:>8} {:>8} {:>9} {:>10} {:>10}  evidence",
+                "effect", "NRMSE", "drop", "held-out", "ΔBIC", "p"
+            );
+            for c in &dg.candidates {
+                println!(
+                    "{} {:<20} {:>8.4} {:>7.1}% {:>8.1}% {:>10.1} {:>10.2e}  {}",
+                    if c.significant { "*" } else { " " },
+                    c.effect,
+                    c.nrmse,
+                    100.0 * c.improvement,
+                    100.0 * c.holdout_improvement,
+                    c.delta_bic,
+                    c.p_value,
+                    c.evidence
+                );
+            }
+            if !dg.not_assessed.is_empty() {
+                println!(
+                    "\nnot assessed from this data: {}",
+                    dg.not_assessed.join(", ")
+                );
+            }
+            match &dg.verdict {
+                Some(v) => println!("\nverdict: {v} is most likely missing (add it: --with {v}, then `actuator fit`)"),
+                None => println!("\nverdict: none — no candidate improves the fit significantly"),
+            }
+            Ok(())
+        }
+        LabCommand::Fit {
+            data,
+            model,
+            out,
+            json,
+        } => {
+            let (d, prep) = load_data(&data)?;
+            let m = load_model(&model)?;
+            let before = id_comparison(
+                &super::regress::balance(&m.spec, &d, &prep)?.evaluate(),
+                super::compare::units(&m).1,
+                "as given",
+            )?;
+            let pb = progress_bar(1);
+            if let Some(p) = &pb {
+                p.set_message("fitting");
+            }
+            let (spec, fit) = fit_spec(&m.spec, &d, &prep, None)?;
+            if let Some(p) = &pb {
+                p.finish_and_clear();
+            }
+            let fitted = Model {
+                name: out
+                    .file_stem()
+                    .and_then(|s| s.to_str())
+                    .unwrap_or("fitted")
+                    .to_string(),
+                spec,
+            };
+            let mut text = format!(
+                "# Fitted by `actuator fit` on {} (mode inverse_dynamics): NRMSE {:.4} -> {:.4}\n",
+                d.origin, before.nrmse, fit.nrmse
+            );
+            for (j, name) in fit.names.iter().enumerate() {
+                if let Some((lo, hi)) = fit.intervals[j] {
+                    text.push_str(&format!(
+                        "# {name} = {:.6e}, 95 % interval [{lo:.6e}, {hi:.6e}]\n",
+                        fit.values[j]
+                    ));
+                }
+            }
+            text.push_str(&fitted.to_toml());
+            std::fs::write(&out, text).map_err(|e| anyhow::anyhow!("{}: {e}", out.display()))?;
+            if json {
+                let params: Vec<_> = fit
+                    .names
+                    .iter()
+                    .enumerate()
+                    .filter(|(j, _)| fit.intervals[*j].is_some())
+                    .map(|(j, n)| {
+                        let (lo, hi) = fit.intervals[j].unwrap_or((f64::NAN, f64::NAN));
+                        serde_json::json!({"name": n, "value": fit.values[j], "low": lo, "high": hi})
+                    })
+                    .collect();
+                let outj = serde_json::json!({"mode": "inverse_dynamics", "nrmse_before": before.nrmse,
+                    "nrmse": fit.nrmse, "parameters": params, "nonlinear": fit.nonlinear, "out": out.display().to_string()});
+                println!("{}", serde_json::to_string_pretty(&outj)?);
+                return Ok(());
+            }
+            println!(
+                "model {} on {}: mode inverse_dynamics, NRMSE {:.4} as given -> {:.4} fitted",
+                m.name, d.origin, before.nrmse, fit.nrmse
+            );
+            for (j, name) in fit.names.iter().enumerate() {
+                match fit.intervals[j] {
+                    Some((lo, hi)) => println!(
+                        "  {name:<40} {:>13.6e}  95 % [{lo:.4e}, {hi:.4e}]",
+                        fit.values[j]
+                    ),
+                    None if m.spec.get(name).is_some() => {
+                        println!("  {name:<40} {:>13.6e}  (fixed)", fit.values[j])
+                    }
+                    None => {}
+                }
+            }
+            for (name, v) in &fit.nonlinear {
+                println!("  {name:<40} {v:>13.6e}  (grid search)");
+            }
+            println!("wrote {}", out.display());
+            Ok(())
+        }
+        LabCommand::Report {
+            data,
+            model,
+            mode,
+            out,
+        } => {
+            let (d, prep) = load_data(&data)?;
+            let models = model
+                .iter()
+                .map(|p| Model::load(p))
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            let path = super::report::write_report(&out, &d, &prep, &models, mode)?;
+            println!("wrote {}", path.display());
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,811 @@
+//! Inverse-dynamics regression: the balance of forces of a model, written linear in its
+//! parameters, `Σ_j θ_j φ_j(k) = 0`, evaluated on the filtered measurements (the standard for
+//! robot and machine-axis identification). A few terms are held as the scale reference (the
+//! drive: without it every parameter could be scaled by the same factor); they form the
+//! target, the free terms the regressor: `target(k) = -Σ_fixed θ_j φ_j(k) ≈ Σ_free θ_j φ_j(k)`.
+//!
+//! Terms, each written as the force it takes from the drive (N, or N·m on a rotary axis):
+//! inertia `m a`; viscous `d± v`; coulomb `F_C± sign(v)`; stribeck
+//! `(F_S± - F_C±) sign(v) e^{-|v/v_S±|}`; spring `F_0 + c y`; payload `F_max clamp(y/y_full)`;
+//! offset `-F_b`; the drive `-K D(k) K±(dir) (c_0 + c_1 g + c_2 g²)`, `g = Y_0 - y`
+//! (position_stiffness), with the hysteresis play on top. The drive signal `D` is the command
+//! after dead time, dead zone and power stage (linear_axis), the coil current (solenoid), or
+//! `(m/τ) v_c(d)` of the valves (pneumatic, where `(m/τ) v` is then a term too).
+//! Parameters that enter nonlinearly (Stribeck velocity, hysteresis width, dead-zone threshold,
+//! supply exponent, dead time) are found by a search over a grid with the linear ones refitted
+//! at each point.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::data::Dataset;
+use super::signals::{abs_quantile, zero_phase, Prepared};
+use crate::ident::least_squares;
+use crate::physics::{CommandUnit, EffectKind, Family, PlantSpec};
+
+/// One term of the balance of forces.
+#[derive(Debug, Clone)]
+pub struct Term {
+    /// Qualified parameter name the coefficient is, or a label for a fixed term.
+    pub name: String,
+    /// True when the coefficient is a model parameter that the fit may change.
+    pub free: bool,
+    /// Coefficient now.
+    pub value: f64,
+    /// Bounds of the coefficient.
+    pub bounds: (f64, f64),
+    /// Column `φ_j(k)` over all samples.
+    pub col: Vec<f64>,
+}
+
+/// The balance of forces of a model on a data set.
+#[derive(Debug, Clone)]
+pub struct Balance {
+    /// Its terms.
+    pub terms: Vec<Term>,
+    /// Samples used (moving, away from the filter edges).
+    pub index: Vec<usize>,
+    /// Nonlinear parameters and the values used.
+    pub nonlinear: Vec<(String, f64)>,
+}
+
+/// The result of fitting (or just evaluating) a balance.
+#[derive(Debug, Clone)]
+pub struct IdFit {
+    /// Coefficient names, in term order.
+    pub names: Vec<String>,
+    /// Coefficients after the fit (fixed ones unchanged).
+    pub values: Vec<f64>,
+    /// Free flags as fitted (a coefficient pinned at a bound counts as fixed).
+    pub free: Vec<bool>,
+    /// 95 % confidence intervals of the free coefficients, widened for correlated residuals.
+    pub intervals: Vec<Option<(f64, f64)>>,
+    /// Sample index of each residual.
+    pub index: Vec<usize>,
+    /// `target(k)`, the reference force, on `index`.
+    pub target: Vec<f64>,
+    /// `target - Σ_free θ φ`, on `index`.
+    pub residual: Vec<f64>,
+    /// Residual sum of squares.
+    pub rss: f64,
+    /// Number of free coefficients plus grid-searched parameters.
+    pub parameters: usize,
+    /// `NRMSE = RMS(residual) / std(target)`.
+    pub nrmse: f64,
+    /// Nonlinear parameters and their values.
+    pub nonlinear: Vec<(String, f64)>,
+}
+
+/// Effects the inverse-dynamics regression can represent for a family, given which signals were
+/// recorded (with a measured coil current, what acts before the coil is invisible).
+pub fn representable(family: Family, kind: EffectKind, d: &Prepared) -> bool {
+    use EffectKind as E;
+    let common = matches!(
+        kind,
+        E::Viscous | E::Coulomb | E::Stribeck | E::Spring | E::Offset | E::Payload
+    );
+    match family {
+        Family::LinearAxis => {
+            common
+                || matches!(
+                    kind,
+                    E::PositionStiffness
+                        | E::Hysteresis
+                        | E::DirectionAsymmetry
+                        | E::Deadzone
+                        | E::DeadTime
+                )
+                || kind == E::SupplyGain && d.supply.is_some()
+        }
+        Family::Solenoid => {
+            common
+                || matches!(kind, E::PositionStiffness | E::Hysteresis)
+                || (d.current.is_none()
+                    && (matches!(kind, E::Deadzone | E::DeadTime)
+                        || kind == E::SupplyGain && d.supply.is_some()))
+        }
+        Family::Pneumatic => {
+            common
+                || matches!(kind, E::Deadzone | E::DeadTime)
+                || kind == E::SupplyGain && d.supply.is_some()
+        }
+        Family::MotorGear => false,
+    }
+}
+
+fn p(spec: &PlantSpec, name: &str) -> f64 {
+    spec.get(name).unwrap_or(0.0)
+}
+
+fn param_term(spec: &PlantSpec, name: &str, col: Vec<f64>) -> Term {
+    let (free, bounds) = spec
+        .params()
+        .into_iter()
+        .find(|(n, _)| n == name)
+        .map_or((false, (f64::NEG_INFINITY, f64::INFINITY)), |(_, p)| {
+            (p.free, (p.def.min, p.def.max))
+        });
+    Term {
+        name: name.to_string(),
+        free,
+        value: p(spec, name),
+        bounds,
+        col,
+    }
+}
+
+fn fixed_term(name: &str, col: Vec<f64>) -> Term {
+    Term {
+        name: name.to_string(),
+        free: false,
+        value: 1.0,
+        bounds: (1.0, 1.0),
+        col,
+    }
+}
+
+/// Supply over its nominal value, `S / S_nom` (voltage) or `(P_atm - P) / (P_atm - P_nom)`
+/// (pneumatic low pressure), per sample; 1 when no supply was recorded.
+fn supply_ratio(spec: &PlantSpec, raw: &Dataset) -> Vec<f64> {
+    let fam = spec.family.name();
+    match (&raw.supply, spec.family) {
+        (None, _) => vec![1.0; raw.len()],
+        (Some(s), Family::Pneumatic) => {
+            let atm = p(spec, "pneumatic.atmosphere_pa");
+            let nom = p(spec, "pneumatic.supply_pressure_pa");
+            s.iter().map(|x| (atm - x) / (atm - nom)).collect()
+        }
+        (Some(s), _) => {
+            let nom = p(spec, &format!("{fam}.supply_voltage_v"));
+            s.iter().map(|x| x / nom).collect()
+        }
+    }
+}
+
+/// Command after dead time and dead zone, per sample.
+fn shaped_command(spec: &PlantSpec, raw: &Dataset, dt: f64) -> Vec<f64> {
+    let mut u = raw.input.clone();
+    if spec.effects.iter().any(|e| e.kind == EffectKind::DeadTime) {
+        let shift = (p(spec, "dead_time.delay_s") / dt).round() as usize;
+        if shift > 0 {
+            let first = u[0];
+            let mut shifted = vec![first; shift.min(u.len())];
+            shifted.extend_from_slice(&u[..u.len().saturating_sub(shift)]);
+            u = shifted;
+        }
+    }
+    if spec.effects.iter().any(|e| e.kind == EffectKind::Deadzone) {
+        let key = format!("deadzone.threshold{}", spec.command.suffix_and_unit().0);
+        let u0 = p(spec, &key);
+        for x in &mut u {
+            *x = if *x > u0 {
+                *x - u0
+            } else if *x < -u0 {
+                *x + u0
+            } else {
+                0.0
+            };
+        }
+    }
+    u
+}
+
+/// Build the balance of forces of `spec` on the data (raw and prepared).
+pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<Balance> {
+    let fam = spec.family.name();
+    let n = d.y.len();
+    let has = |k: EffectKind| spec.effects.iter().any(|e| e.kind == k);
+    for e in &spec.effects {
+        if !representable(spec.family, e.kind, d) && e.kind != EffectKind::Stiction {
+            anyhow::bail!(
+                "effect '{}' of a {} model has no place in the inverse-dynamics regression{}",
+                e.kind,
+                spec.family,
+                if spec.family == Family::MotorGear {
+                    " (motor_gear: use --mode free_run)"
+                } else {
+                    ""
+                }
+            );
+        }
+    }
+    let f = |name: &str| format!("{fam}.{name}");
+    let dir: Vec<f64> =
+        d.v.iter()
+            .map(|&v| if v >= 0.0 { 1.0 } else { -1.0 })
+            .collect();
+    let mut terms = Vec::new();
+    let mut nonlinear = Vec::new();
+    // Inertia.
+    terms.push(param_term(spec, &f("mass_kg"), d.a.clone()));
+    // The drive signal D and its gain K.
+    let ratio = supply_ratio(spec, raw);
+    let u = shaped_command(spec, raw, d.dt);
+    let kappa = if has(EffectKind::SupplyGain) {
+        let k = p(spec, "supply_gain.exponent");
+        nonlinear.push(("supply_gain.exponent".to_string(), k));
+        Some(k)
+    } else {
+        None
+    };
+    let factor = |r: f64| kappa.map_or(1.0, |k| r.max(0.0).powf(k));
+    for (name, key) in [
+        ("dead_time.delay_s", EffectKind::DeadTime),
+        ("deadzone", EffectKind::Deadzone),
+    ] {
+        if has(key) {
+            let full = if key == EffectKind::Deadzone {
+                format!("deadzone.threshold{}", spec.command.suffix_and_unit().0)
+            } else {
+                name.to_string()
+            };
+            nonlinear.push((full.clone(), p(spec, &full)));
+        }
+    }
+    let (gain, drive_raw): (f64, Vec<f64>) = match spec.family {
+        Family::LinearAxis if spec.command == CommandUnit::Volt => {
+            let vs = p(spec, &f("supply_voltage_v"));
+            let sig = u
+                .iter()
+                .zip(&ratio)
+                .map(|(&x, &r)| match kappa {
+                    Some(_) => x.clamp(-vs, vs) * factor(r),
+                    None => x.clamp(-vs * r, vs * r),
+                })
+                .collect();
+            (p(spec, &f("force_gain_n_per_v")), sig)
+        }
+        Family::LinearAxis => (1.0, u.clone()),
+        Family::Solenoid => {
+            let k_mag = p(spec, &f("force_constant_n_per_a"));
+            match &raw.current {
+                Some(i) => (k_mag, i.clone()),
+                None => {
+                    // Current loop `T_I I' + I = K_I U`, exact for U held over a sample.
+                    let vs = p(spec, &f("supply_voltage_v"));
+                    let ti = p(spec, &f("current_time_constant_s"));
+                    let ki = p(spec, &f("current_gain_a_per_v"));
+                    let beta = 1.0 - (-d.dt / ti).exp();
+                    let mut i = 0.0;
+                    let sig = u
+                        .iter()
+                        .zip(&ratio)
+                        .map(|(&x, &r)| {
+                            let volt = match kappa {
+                                Some(_) => x.clamp(0.0, vs) * factor(r),
+                                None => x.clamp(0.0, vs * r),
+                            };
+                            let now = i;
+                            i += beta * (ki * volt - i);
+                            now
+                        })
+                        .collect();
+                    (k_mag, sig)
+                }
+            }
+        }
+        Family::Pneumatic => {
+            // Valves: v_c = K_I1 d (d < 0) or K_I2 d (d > 0), times (S/S_nom)^κ.
+            let c = p(spec, &f("mass_kg")) / p(spec, &f("velocity_time_constant_s"));
+            let down: Vec<f64> = u
+                .iter()
+                .zip(&ratio)
+                .map(|(&x, &r)| -c * x.clamp(-1.0, 0.0) * factor(r))
+                .collect();
+            let up: Vec<f64> = u
+                .iter()
+                .zip(&ratio)
+                .map(|(&x, &r)| -c * x.clamp(0.0, 1.0) * factor(r))
+                .collect();
+            let (dt, fc) = (d.dt, d.cutoff_hz);
+            // Resisting form: the valves push with c v_c (column -c d), the compliance takes c v.
+            terms.push(param_term(
+                spec,
+                &f("gain_down_m_per_s"),
+                zero_phase(&down, fc, dt),
+            ));
+            terms.push(param_term(
+                spec,
+                &f("gain_up_m_per_s"),
+                zero_phase(&up, fc, dt),
+            ));
+            terms.push(fixed_term(
+                "compliance (m/τ) v",
+                d.v.iter().map(|v| c * v).collect(),
+            ));
+            (0.0, Vec::new())
+        }
+        Family::MotorGear => anyhow::bail!(
+            "motor_gear has no inverse-dynamics form in the lab yet; use --mode free_run"
+        ),
+    };
+    if spec.family != Family::Pneumatic {
+        // Drive force pieces, filtered after the nonlinear input stage.
+        let (fc, dt) = (d.cutoff_hz, d.dt);
+        let base = zero_phase(&drive_raw, fc, dt);
+        let (g_pos, g_neg) = if has(EffectKind::DirectionAsymmetry) {
+            (
+                p(spec, "direction_asymmetry.gain_pos"),
+                p(spec, "direction_asymmetry.gain_neg"),
+            )
+        } else {
+            (1.0, 1.0)
+        };
+        let ps = if has(EffectKind::PositionStiffness) {
+            let y0 = p(
+                spec,
+                &format!("position_stiffness.pole{}", pos_suffix(spec)),
+            );
+            Some((
+                y0,
+                p(spec, "position_stiffness.c0"),
+                p(
+                    spec,
+                    &format!("position_stiffness.c1{}", per_pos_suffix(spec, 1)),
+                ),
+                p(
+                    spec,
+                    &format!("position_stiffness.c2{}", per_pos_suffix(spec, 2)),
+                ),
+            ))
+        } else {
+            None
+        };
+        let c0 = ps.map_or(1.0, |s| s.1);
+        let gdir = |k: usize| if dir[k] > 0.0 { g_pos } else { g_neg };
+        // Reference: K D c0 on positive motion (and on negative motion without asymmetry).
+        if has(EffectKind::DirectionAsymmetry) {
+            terms.push(fixed_term(
+                "drive (positive motion)",
+                (0..n)
+                    .map(|k| {
+                        if dir[k] > 0.0 {
+                            -gain * base[k] * c0 * g_pos
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect(),
+            ));
+            terms.push(param_term(
+                spec,
+                "direction_asymmetry.gain_neg",
+                (0..n)
+                    .map(|k| {
+                        if dir[k] < 0.0 {
+                            -gain * base[k] * c0
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect(),
+            ));
+        } else {
+            terms.push(fixed_term(
+                "drive",
+                (0..n).map(|k| -gain * base[k] * c0).collect(),
+            ));
+        }
+        if let Some((y0, _, _, _)) = ps {
+            let c1 = format!("position_stiffness.c1{}", per_pos_suffix(spec, 1));
+            let c2 = format!("position_stiffness.c2{}", per_pos_suffix(spec, 2));
+            terms.push(param_term(
+                spec,
+                &c1,
+                (0..n)
+                    .map(|k| -gain * base[k] * gdir(k) * (y0 - d.y[k]))
+                    .collect(),
+            ));
+            terms.push(param_term(
+                spec,
+                &c2,
+                (0..n)
+                    .map(|k| -gain * base[k] * gdir(k) * (y0 - d.y[k]).powi(2))
+                    .collect(),
+            ));
+        }
+        if has(EffectKind::Hysteresis) {
+            let w = p(spec, &format!("hysteresis.width{}", force_suffix(spec)));
+            nonlinear.push((format!("hysteresis.width{}", force_suffix(spec)), w));
+            // Play on the unfiltered drive force, then filtered like every other column.
+            let full: Vec<f64> = (0..n)
+                .map(|k| {
+                    let g = ps.map_or(1.0, |(y0, c0, c1, c2)| {
+                        let e = y0 - raw.output[k];
+                        (c0 + e * (c1 + e * c2)).max(0.0)
+                    });
+                    gain * drive_raw[k] * gdir(k) * g
+                })
+                .collect();
+            let r = 0.5 * w;
+            let mut z = full[0];
+            let diff: Vec<f64> = full
+                .iter()
+                .map(|&fk| {
+                    z = z.clamp(fk - r, fk + r);
+                    -(z - fk)
+                })
+                .collect();
+            terms.push(fixed_term("hysteresis play", zero_phase(&diff, fc, dt)));
+        }
+    }
+    // Resisting forces.
+    let one = |cond: &dyn Fn(usize) -> f64| (0..n).map(cond).collect::<Vec<f64>>();
+    if has(EffectKind::Viscous) {
+        let fs = damping_suffix(spec);
+        terms.push(param_term(
+            spec,
+            &format!("viscous.damping_pos{fs}"),
+            one(&|k| if d.v[k] > 0.0 { d.v[k] } else { 0.0 }),
+        ));
+        terms.push(param_term(
+            spec,
+            &format!("viscous.damping_neg{fs}"),
+            one(&|k| if d.v[k] < 0.0 { d.v[k] } else { 0.0 }),
+        ));
+    }
+    let fsx = force_suffix(spec);
+    if has(EffectKind::Coulomb) {
+        terms.push(param_term(
+            spec,
+            &format!("coulomb.coulomb_pos{fsx}"),
+            one(&|k| if d.v[k] > 0.0 { 1.0 } else { 0.0 }),
+        ));
+        terms.push(param_term(
+            spec,
+            &format!("coulomb.coulomb_neg{fsx}"),
+            one(&|k| if d.v[k] < 0.0 { -1.0 } else { 0.0 }),
+        ));
+    }
+    if has(EffectKind::Stribeck) {
+        let vs = velocity_suffix(spec);
+        let vp = p(spec, &format!("stribeck.velocity_pos{vs}"));
+        let vn = p(spec, &format!("stribeck.velocity_neg{vs}"));
+        nonlinear.push((format!("stribeck.velocity_pos{vs}"), vp));
+        terms.push(param_term(
+            spec,
+            &format!("stribeck.excess_pos{fsx}"),
+            one(&|k| {
+                if d.v[k] > 0.0 {
+                    (-d.v[k] / vp).exp()
+                } else {
+                    0.0
+                }
+            }),
+        ));
+        terms.push(param_term(
+            spec,
+            &format!("stribeck.excess_neg{fsx}"),
+            one(&|k| {
+                if d.v[k] < 0.0 {
+                    -(d.v[k] / vn).exp()
+                } else {
+                    0.0
+                }
+            }),
+        ));
+    }
+    if has(EffectKind::Spring) {
+        terms.push(param_term(
+            spec,
+            &format!("spring.stiffness{}", stiffness_suffix(spec)),
+            d.y.clone(),
+        ));
+        terms.push(param_term(
+            spec,
+            &format!("spring.pretension{fsx}"),
+            vec![1.0; n],
+        ));
+    }
+    if has(EffectKind::Payload) {
+        let full = p(spec, &format!("payload.full_scale{}", pos_suffix(spec)));
+        terms.push(param_term(
+            spec,
+            &format!("payload.max_load{fsx}"),
+            d.y.iter().map(|y| (y / full).clamp(-1.0, 1.0)).collect(),
+        ));
+    }
+    if has(EffectKind::Offset) {
+        terms.push(param_term(
+            spec,
+            &format!("offset.bias{fsx}"),
+            vec![-1.0; n],
+        ));
+    }
+    let index = (0..n).filter(|&k| d.valid[k]).collect();
+    Ok(Balance {
+        terms,
+        index,
+        nonlinear,
+    })
+}
+
+fn force_suffix(spec: &PlantSpec) -> &'static str {
+    spec.family
+        .suffix_and_unit(crate::physics::Quantity::Force, spec.command)
+        .0
+}
+fn damping_suffix(spec: &PlantSpec) -> &'static str {
+    spec.family
+        .suffix_and_unit(crate::physics::Quantity::Damping, spec.command)
+        .0
+}
+fn stiffness_suffix(spec: &PlantSpec) -> &'static str {
+    spec.family
+        .suffix_and_unit(crate::physics::Quantity::Stiffness, spec.command)
+        .0
+}
+fn pos_suffix(spec: &PlantSpec) -> &'static str {
+    spec.family
+        .suffix_and_unit(crate::physics::Quantity::Position, spec.command)
+        .0
+}
+fn velocity_suffix(spec: &PlantSpec) -> &'static str {
+    spec.family
+        .suffix_and_unit(crate::physics::Quantity::Velocity, spec.command)
+        .0
+}
+fn per_pos_suffix(spec: &PlantSpec, order: u8) -> &'static str {
+    let q = if order == 1 {
+        crate::physics::Quantity::PerPosition
+    } else {
+        crate::physics::Quantity::PerPosition2
+    };
+    spec.family.suffix_and_unit(q, spec.command).0
+}
+
+impl Balance {
+    /// Residual of the balance with the coefficients as they are, on the samples `index`.
+    pub fn evaluate_on(&self, index: &[usize]) -> IdFit {
+        let free: Vec<bool> = self.terms.iter().map(|t| t.free).collect();
+        let values: Vec<f64> = self.terms.iter().map(|t| t.value).collect();
+        self.finish(values, free, vec![None; self.terms.len()], 0, index)
+    }
+
+    /// Residual of the balance with the coefficients as they are (no fit).
+    pub fn evaluate(&self) -> IdFit {
+        let free: Vec<bool> = self.terms.iter().map(|t| t.free).collect();
+        let values: Vec<f64> = self.terms.iter().map(|t| t.value).collect();
+        self.finish(values, free, vec![None; self.terms.len()], 0, &self.index)
+    }
+
+    fn target_and_prediction(&self, values: &[f64], free: &[bool], k: usize) -> (f64, f64) {
+        let mut target = 0.0;
+        let mut pred = 0.0;
+        for (j, t) in self.terms.iter().enumerate() {
+            if free[j] {
+                pred += values[j] * t.col[k];
+            } else {
+                target -= values[j] * t.col[k];
+            }
+        }
+        (target, pred)
+    }
+
+    fn finish(
+        &self,
+        values: Vec<f64>,
+        free: Vec<bool>,
+        intervals: Vec<Option<(f64, f64)>>,
+        extra: usize,
+        index: &[usize],
+    ) -> IdFit {
+        let mut target = Vec::with_capacity(index.len());
+        let mut residual = Vec::with_capacity(index.len());
+        for &k in index {
+            let (t, p) = self.target_and_prediction(&values, &free, k);
+            target.push(t);
+            residual.push(t - p);
+        }
+        let rss: f64 = residual.iter().map(|r| r * r).sum();
+        let n = residual.len().max(1) as f64;
+        let mean = target.iter().sum::<f64>() / n;
+        let var = target.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / n;
+        let nrmse = if var > 0.0 {
+            (rss / n).sqrt() / var.sqrt()
+        } else {
+            f64::INFINITY
+        };
+        IdFit {
+            names: self.terms.iter().map(|t| t.name.clone()).collect(),
+            parameters: free.iter().filter(|f| **f).count() + extra,
+            values,
+            free,
+            intervals,
+            index: index.to_vec(),
+            target,
+            residual,
+            rss,
+            nrmse,
+            nonlinear: self.nonlinear.clone(),
+        }
+    }
+
+    /// Least-squares fit of the free coefficients on the samples `index` (all usable samples
+    /// when `None`), within their bounds: a coefficient that leaves its bounds is pinned there and
+    /// the others refitted. `extra` counts grid-searched parameters; `n_eff_per_sample` widens
+    /// the intervals for correlated residuals.
+    pub fn fit(&self, index: Option<&[usize]>, extra: usize, n_eff_per_sample: f64) -> IdFit {
+        let index = index.unwrap_or(&self.index);
+        let mut values: Vec<f64> = self.terms.iter().map(|t| t.value).collect();
+        let mut free: Vec<bool> = self.terms.iter().map(|t| t.free).collect();
+        let mut intervals = vec![None; self.terms.len()];
+        for _ in 0..self.terms.len() + 1 {
+            let cols: Vec<usize> = (0..self.terms.len()).filter(|&j| free[j]).collect();
+            if cols.is_empty() || index.len() <= cols.len() + 1 {
+                break;
+            }
+            let mut psi = DMatrix::<f64>::zeros(index.len(), cols.len());
+            let mut y = DVector::<f64>::zeros(index.len());
+            for (r, &k) in index.iter().enumerate() {
+                let mut t = 0.0;
+                for (j, term) in self.terms.iter().enumerate() {
+                    if !free[j] {
+                        t -= values[j] * term.col[k];
+                    }
+                }
+                y[r] = t;
+                for (c, &j) in cols.iter().enumerate() {
+                    psi[(r, c)] = self.terms[j].col[k];
+                }
+            }
+            match least_squares(&psi, &y) {
+                Ok(ls) => {
+                    let widen = (1.0 / n_eff_per_sample.clamp(1e-6, 1.0)).sqrt();
+                    let ci = ls.confidence_intervals(0.95);
+                    let mut pinned = false;
+                    for (c, &j) in cols.iter().enumerate() {
+                        let v = ls.theta[c];
+                        let (lo, hi) = self.terms[j].bounds;
+                        let half = 0.5 * (ci[c].1 - ci[c].0) * widen;
+                        intervals[j] = Some((v - half, v + half));
+                        values[j] = v;
+                        if v < lo || v > hi {
+                            values[j] = v.clamp(lo, hi);
+                            free[j] = false;
+                            intervals[j] = None;
+                            pinned = true;
+                        }
+                    }
+                    if !pinned {
+                        break;
+                    }
+                }
+                Err(crate::ident::IdentError::RankDeficient { column, .. }) => {
+                    // A column without information (e.g. no negative motion): keep it as is.
+                    free[cols[column]] = false;
+                }
+                Err(_) => break,
+            }
+        }
+        self.finish(values, free, intervals, extra, index)
+    }
+}
+
+/// A grid for a nonlinear parameter of an effect, from the data: `(qualified name, values)`.
+pub fn grid_for(
+    spec: &PlantSpec,
+    kind: EffectKind,
+    d: &Prepared,
+    raw: &Dataset,
+) -> Option<(String, Vec<f64>)> {
+    let geom = |lo: f64, hi: f64, n: usize| -> Vec<f64> {
+        (0..n)
+            .map(|i| lo * (hi / lo).powf(i as f64 / (n - 1) as f64))
+            .collect()
+    };
+    match kind {
+        EffectKind::Stribeck => {
+            let vmax = abs_quantile(&d.v, 0.95).max(1e-12);
+            Some((
+                format!("stribeck.velocity_pos{}", velocity_suffix(spec)),
+                geom(vmax * 0.01, vmax * 0.5, 10),
+            ))
+        }
+        EffectKind::Hysteresis => {
+            let umax = abs_quantile(&raw.input, 0.95).max(1e-12);
+            let scale = match spec.family {
+                Family::Solenoid => {
+                    raw.current
+                        .as_ref()
+                        .map_or(umax * 0.1, |i| abs_quantile(i, 0.95))
+                        * p(spec, "solenoid.force_constant_n_per_a")
+                }
+                Family::LinearAxis if spec.command == CommandUnit::Volt => {
+                    umax * p(spec, "linear_axis.force_gain_n_per_v")
+                }
+                _ => umax,
+            };
+            Some((
+                format!("hysteresis.width{}", force_suffix(spec)),
+                geom(scale * 0.005, scale * 0.6, 12),
+            ))
+        }
+        EffectKind::Deadzone => {
+            let umax = abs_quantile(&raw.input, 0.95).max(1e-12);
+            Some((
+                format!("deadzone.threshold{}", spec.command.suffix_and_unit().0),
+                geom(umax * 0.003, umax * 0.4, 12),
+            ))
+        }
+        EffectKind::SupplyGain => Some((
+            "supply_gain.exponent".to_string(),
+            (0..=20).map(|i| i as f64 * 0.25).collect(),
+        )),
+        EffectKind::DeadTime => Some((
+            "dead_time.delay_s".to_string(),
+            (1..=12).map(|i| i as f64 * d.dt).collect(),
+        )),
+        _ => None,
+    }
+}
+
+/// Set a nonlinear parameter; the Stribeck velocity is one value for both directions.
+pub fn set_nonlinear(spec: &mut PlantSpec, name: &str, value: f64) -> anyhow::Result<()> {
+    spec.set(name, value)?;
+    if let Some(rest) = name.strip_prefix("stribeck.velocity_pos") {
+        spec.set(&format!("stribeck.velocity_neg{rest}"), value)?;
+    }
+    Ok(())
+}
+
+/// Fit a model's free parameters by inverse-dynamics regression: linear coefficients by least
+/// squares, free nonlinear parameters by a grid search over each in turn. Returns the fitted
+/// spec and the fit on the samples `index` (all usable samples when `None`).
+pub fn fit_spec(
+    spec: &PlantSpec,
+    raw: &Dataset,
+    d: &Prepared,
+    index: Option<&[usize]>,
+) -> anyhow::Result<(PlantSpec, IdFit)> {
+    let mut spec = spec.clone();
+    let mut extra = 0;
+    for kind in spec.effects.iter().map(|e| e.kind).collect::<Vec<_>>() {
+        let Some((name, grid)) = grid_for(&spec, kind, d, raw) else {
+            continue;
+        };
+        let free = spec.params().iter().any(|(n, p)| *n == name && p.free);
+        if !free {
+            continue;
+        }
+        extra += 1;
+        let mut best: Option<(f64, f64)> = None;
+        for g in grid {
+            let mut s = spec.clone();
+            if set_nonlinear(&mut s, &name, g).is_err() {
+                continue;
+            }
+            let fit = balance(&s, raw, d)?.fit(index, 0, d.n_eff_per_sample);
+            if best.is_none_or(|(r, _)| fit.rss < r) {
+                best = Some((fit.rss, g));
+            }
+        }
+        if let Some((_, g)) = best {
+            set_nonlinear(&mut spec, &name, g)?;
+        }
+    }
+    let bal = balance(&spec, raw, d)?;
+    let fit = bal.fit(index, extra, d.n_eff_per_sample);
+    for (j, name) in fit.names.iter().enumerate() {
+        if bal.terms[j].free && spec.get(name).is_some() {
+            let v = fit.values[j];
+            let (lo, hi) = bal.terms[j].bounds;
+            // Strict lower bounds (> 0) take the smallest admissible value.
+            let v = if v <= lo && lo == 0.0 {
+                let def_strict = spec
+                    .params()
+                    .iter()
+                    .find(|(n, _)| n == name)
+                    .is_some_and(|(_, p)| p.def.min_strict);
+                if def_strict {
+                    f64::MIN_POSITIVE.max(1e-12)
+                } else {
+                    v.clamp(lo, hi)
+                }
+            } else {
+                v.clamp(lo, hi)
+            };
+            spec.set(name, v)?;
+        }
+    }
+    Ok((spec, fit))
+}

@@ -1,0 +1,144 @@
+//! The HTML report: measurement and model over time, residual against velocity, position and
+//! supply, error by regime as bars, and before/after when several models are given.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use super::compare::{compare, Comparison, Mode};
+use super::data::Dataset;
+use super::model::Model;
+use super::regimes::{breakdown, Breakdown};
+use super::signals::Prepared;
+use super::svg::{bars, chart, Series};
+
+/// Write `index.html` into `dir` for the models on the data; returns the file written.
+pub fn write_report(
+    dir: &Path,
+    data: &Dataset,
+    prep: &Prepared,
+    models: &[Model],
+    mode: Mode,
+) -> anyhow::Result<std::path::PathBuf> {
+    std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("{}: {e}", dir.display()))?;
+    let mut results: Vec<(Comparison, Breakdown)> = Vec::new();
+    for m in models {
+        let c = compare(m, data, prep, mode, 10)?;
+        let b = breakdown(&c, data, prep);
+        results.push((c, b));
+    }
+    let names: Vec<String> = models.iter().map(|m| m.name.clone()).collect();
+    let mut html = String::new();
+    let _ = write!(
+        html,
+        "<!doctype html><html><head><meta charset='utf-8'><title>actuator lab: {}</title>\
+         <style>body{{font-family:sans-serif;max-width:760px;margin:auto}}td,th{{padding:2px 8px;text-align:right}}</style></head><body>\
+         <h1>Model lab report</h1><p>Data: <code>{}</code>, {} samples, period {:.4} s. Mode: <b>{}</b>.</p><table><tr><th>model</th><th>fit %</th><th>NRMSE</th><th>RMSE</th></tr>",
+        data.origin,
+        data.origin,
+        data.len(),
+        data.period_s(),
+        mode
+    );
+    for (m, (c, _)) in models.iter().zip(&results) {
+        let _ = write!(
+            html,
+            "<tr><td>{}</td><td>{:.1}</td><td>{:.4}</td><td>{:.3e} {}</td></tr>",
+            m.name, c.fit, c.nrmse, c.rmse, c.unit
+        );
+    }
+    html.push_str("</table>");
+    for (m, (_, b)) in models.iter().zip(&results) {
+        let _ = write!(html, "<p><b>{}</b>: {}</p>", m.name, b.worst);
+    }
+    // Over time.
+    let first = &results[0].0;
+    let mut series = vec![Series {
+        name: "measured",
+        x: first.index.iter().map(|&k| data.time[k]).collect(),
+        y: first.measured.clone(),
+        dots: mode == Mode::InverseDynamics,
+    }];
+    for (name, (c, _)) in names.iter().zip(&results) {
+        series.push(Series {
+            name,
+            x: c.index.iter().map(|&k| data.time[k]).collect(),
+            y: c.predicted.clone(),
+            dots: mode == Mode::InverseDynamics,
+        });
+    }
+    html.push_str(&chart(
+        &format!("{} over time", first.quantity),
+        "time (s)",
+        &format!("{} ({})", first.quantity, first.unit),
+        &series,
+    ));
+    // Residual against velocity, position, supply.
+    let mut against = |label: &str, f: &dyn Fn(usize) -> f64| {
+        let series: Vec<Series> = names
+            .iter()
+            .zip(&results)
+            .map(|(name, (c, _))| Series {
+                name,
+                x: c.index.iter().map(|&k| f(k)).collect(),
+                y: c.residual(),
+                dots: true,
+            })
+            .collect();
+        html.push_str(&chart(
+            &format!("residual against {label}"),
+            label,
+            &format!("residual ({})", first.unit),
+            &series,
+        ));
+    };
+    against("velocity", &|k| prep.v[k]);
+    against("position", &|k| data.output[k]);
+    if let Some(s) = &data.supply {
+        against("supply", &|k| s[k]);
+    }
+    // Error by regime.
+    let labels: Vec<String> = results[0]
+        .1
+        .regimes
+        .iter()
+        .map(|r| format!("{}: {}", r.group, r.label))
+        .collect();
+    let values: Vec<Vec<f64>> = results
+        .iter()
+        .map(|(_, b)| {
+            labels
+                .iter()
+                .map(|l| {
+                    b.regimes
+                        .iter()
+                        .find(|r| format!("{}: {}", r.group, r.label) == *l)
+                        .map_or(0.0, |r| r.rmse)
+                })
+                .collect()
+        })
+        .collect();
+    html.push_str(&bars(
+        "RMSE by regime",
+        &first.unit,
+        &labels,
+        &values,
+        &names,
+    ));
+    html.push_str("<h2>Residual tests (95 % bounds)</h2><table><tr><th>model</th><th>test</th><th>value</th><th>bound</th><th>pass</th></tr>");
+    for (name, (_, b)) in names.iter().zip(&results) {
+        for t in &b.tests {
+            let _ = write!(
+                html,
+                "<tr><td>{name}</td><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{}</td></tr>",
+                t.name,
+                t.value,
+                t.bound,
+                if t.pass { "yes" } else { "no" }
+            );
+        }
+    }
+    html.push_str("</table></body></html>\n");
+    let path = dir.join("index.html");
+    std::fs::write(&path, html).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    Ok(path)
+}

@@ -1,0 +1,153 @@
+//! Signals for the inverse-dynamics regression: zero-phase low-pass filtered position, its first
+//! two derivatives, and the command, current and supply through the same filter, so that every
+//! signal of the balance of forces sees the same filter and none lags another.
+
+use super::data::Dataset;
+
+/// The prepared signals of a data set.
+#[derive(Debug, Clone)]
+pub struct Prepared {
+    /// Sample period `T_0` in s.
+    pub dt: f64,
+    /// Filter corner in Hz.
+    pub cutoff_hz: f64,
+    /// Filtered position.
+    pub y: Vec<f64>,
+    /// Velocity of the filtered position.
+    pub v: Vec<f64>,
+    /// Acceleration of the filtered position.
+    pub a: Vec<f64>,
+    /// Filtered command.
+    pub u: Vec<f64>,
+    /// Filtered current, when recorded.
+    pub current: Option<Vec<f64>>,
+    /// Filtered supply, when recorded.
+    pub supply: Option<Vec<f64>>,
+    /// Speed below which a sample counts as standstill.
+    pub v_standstill: f64,
+    /// Samples usable for the regression: moving, away from the filter's start-up at both ends.
+    pub valid: Vec<bool>,
+    /// Number of statistically independent samples, `N_eff = 2 f_c N T_0` (the residual of a
+    /// band-limited regression is correlated over about `1/(2 f_c)`), at most `N`.
+    pub n_eff_per_sample: f64,
+}
+
+/// Default filter corner: a tenth of the sample rate, at most 50 Hz.
+pub fn default_cutoff_hz(dt: f64) -> f64 {
+    (0.1 / dt).min(50.0)
+}
+
+/// One pass of a first-order low-pass, `x_k = x_{k-1} + α (u_k - x_{k-1})`, `α = 1 - e^{-2π f_c T}`.
+fn lowpass_pass(x: &mut [f64], alpha: f64, reverse: bool) {
+    if x.is_empty() {
+        return;
+    }
+    if reverse {
+        let mut s = x[x.len() - 1];
+        for v in x.iter_mut().rev() {
+            s += alpha * (*v - s);
+            *v = s;
+        }
+    } else {
+        let mut s = x[0];
+        for v in x.iter_mut() {
+            s += alpha * (*v - s);
+            *v = s;
+        }
+    }
+}
+
+/// Zero-phase low-pass: two first-order passes forward and two backward (fourth-order magnitude,
+/// no phase lag).
+pub fn zero_phase(x: &[f64], cutoff_hz: f64, dt: f64) -> Vec<f64> {
+    let alpha = 1.0 - (-2.0 * std::f64::consts::PI * cutoff_hz * dt).exp();
+    let mut out = x.to_vec();
+    lowpass_pass(&mut out, alpha, false);
+    lowpass_pass(&mut out, alpha, false);
+    lowpass_pass(&mut out, alpha, true);
+    lowpass_pass(&mut out, alpha, true);
+    out
+}
+
+/// Central difference `x'_k = (x_{k+1} - x_{k-1}) / (2 T_0)`, one-sided at the ends.
+pub fn derivative(x: &[f64], dt: f64) -> Vec<f64> {
+    let n = x.len();
+    let mut d = vec![0.0; n];
+    if n < 2 {
+        return d;
+    }
+    for k in 1..n - 1 {
+        d[k] = (x[k + 1] - x[k - 1]) / (2.0 * dt);
+    }
+    d[0] = (x[1] - x[0]) / dt;
+    d[n - 1] = (x[n - 1] - x[n - 2]) / dt;
+    d
+}
+
+/// The `q`-quantile of `|x|` (0..1).
+pub fn abs_quantile(x: &[f64], q: f64) -> f64 {
+    if x.is_empty() {
+        return 0.0;
+    }
+    let mut s: Vec<f64> = x.iter().map(|v| v.abs()).collect();
+    let i = ((s.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
+    let (_, m, _) = s.select_nth_unstable_by(i, |a, b| a.total_cmp(b));
+    *m
+}
+
+/// Filter and differentiate a data set. `cutoff_hz` defaults to [`default_cutoff_hz`].
+pub fn prepare(d: &Dataset, cutoff_hz: Option<f64>) -> Prepared {
+    let dt = d.period_s();
+    let fc = cutoff_hz
+        .unwrap_or_else(|| default_cutoff_hz(dt))
+        .min(0.45 / dt);
+    let y = zero_phase(&d.output, fc, dt);
+    let v = derivative(&y, dt);
+    let a = derivative(&v, dt);
+    let u = zero_phase(&d.input, fc, dt);
+    let current = d.current.as_ref().map(|c| zero_phase(c, fc, dt));
+    let supply = d.supply.as_ref().map(|c| zero_phase(c, fc, dt));
+    let v_standstill = 0.03 * abs_quantile(&v, 0.95);
+    let n = y.len();
+    // Four passes of a first-order lag: the start-up lasts a few time constants 1/(2π f_c).
+    let edge = ((3.0 / (2.0 * std::f64::consts::PI * fc * dt)).ceil() as usize + 2).min(n / 4);
+    let valid = (0..n)
+        .map(|k| k >= edge && k + edge < n && v[k].abs() > v_standstill)
+        .collect();
+    Prepared {
+        dt,
+        cutoff_hz: fc,
+        y,
+        v,
+        a,
+        u,
+        current,
+        supply,
+        v_standstill,
+        valid,
+        n_eff_per_sample: (2.0 * fc * dt).min(1.0),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn derivatives_of_a_slow_sine_are_close() {
+        let dt = 1e-3;
+        let w = 2.0 * std::f64::consts::PI * 2.0;
+        let x: Vec<f64> = (0..4000).map(|k| (w * k as f64 * dt).sin()).collect();
+        let f = zero_phase(&x, 50.0, dt);
+        let v = derivative(&f, dt);
+        let a = derivative(&v, dt);
+        for k in 500..3500 {
+            let t = k as f64 * dt;
+            assert!((v[k] - w * (w * t).cos()).abs() < 0.01 * w, "v at {k}");
+            assert!(
+                (a[k] + w * w * (w * t).sin()).abs() < 0.02 * w * w,
+                "a at {k}"
+            );
+        }
+    }
+}
