@@ -13,6 +13,7 @@
 pub mod bench;
 pub mod bus;
 pub mod canopen;
+pub mod client;
 pub mod control;
 pub mod daemon;
 pub mod demo;

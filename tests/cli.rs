@@ -75,3 +75,33 @@ fn the_dbc_command_prints_the_committed_dbc() {
     let committed = std::fs::read_to_string(root("dbc/actuatord.dbc")).expect("dbc");
     assert_eq!(String::from_utf8_lossy(&out.stdout), committed);
 }
+
+#[test]
+fn the_committed_eds_is_the_rendered_dictionary_and_python_canopen_loads_it() {
+    let out = Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .args(["eds", "--config", &root("config/solenoid.toml")])
+        .output()
+        .expect("actuator runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let committed = std::fs::read(root("dbc/actuatord.eds")).expect("eds");
+    assert!(
+        out.stdout == committed,
+        "dbc/actuatord.eds is stale: run `cargo run --bin actuator -- eds > dbc/actuatord.eds`"
+    );
+    // An outside tool reads it: the Python canopen package (installed by scripts/setup-test-deps).
+    let script = "import sys, canopen\nod = canopen.import_od(sys.argv[1], 1)\nprint(od['loop_statistics']['cycles'].index, od['axis0_setpoint']['setpoint_position'].subindex)";
+    let py = Command::new("python3")
+        .args(["-c", script, &root("dbc/actuatord.eds")])
+        .output()
+        .expect("python3 runs");
+    assert!(
+        py.status.success(),
+        "{}",
+        String::from_utf8_lossy(&py.stderr)
+    );
+    assert_eq!(String::from_utf8_lossy(&py.stdout).trim(), "12032 1");
+}

@@ -272,3 +272,30 @@ fn a_sensor_frame_that_misses_its_deadline_adds_no_lag() {
     );
     assert_eq!(rig.controller.counters().sensor_missed, 1);
 }
+
+#[test]
+fn an_overrun_rate_above_the_threshold_is_a_timing_warning_on_the_bus() {
+    let mut rig = Rig::new(&[]);
+    rig.run_until(0.5);
+    let states = |rig: &Rig, from: u64| -> Vec<FaultState> {
+        rig.sent
+            .iter()
+            .filter(|(k, f)| *k >= from && f.id() == messages::FAULT_STATE.cob_id(1))
+            .map(|(_, f)| FaultStatePdo::decode(f).expect("decodes").state)
+            .collect()
+    };
+    assert_eq!(states(&rig, 0).last(), Some(&FaultState::Ok));
+    // The cycle thread counts overruns; here 10 % of a status period's cycles overran.
+    let from = rig.k;
+    rig.controller.counters_mut().overruns += 2;
+    rig.run_until(0.6);
+    assert!(
+        states(&rig, from).contains(&FaultState::Warning),
+        "{:?}",
+        states(&rig, from)
+    );
+    // A quiet period clears it again.
+    let from = rig.k;
+    rig.run_until(0.8);
+    assert_eq!(states(&rig, from).last(), Some(&FaultState::Ok));
+}

@@ -235,7 +235,7 @@ fn published_results_are_what_a_read_sees() {
         .handle_by_name(None, "overruns")
         .expect("node-wide statistic");
     let band = od
-        .handle_by_name(Some(0), "observer_band_2")
+        .handle_by_name(Some(0), "observer_x4_neg")
         .expect("learned");
     od.publish(overruns, 42u32).expect("type matches");
     od.publish(band, 0.25f64).expect("type matches");

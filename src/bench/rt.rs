@@ -119,7 +119,7 @@ pub enum RtBenchError {
     #[error(transparent)]
     Plant(#[from] crate::physics::PhysicsError),
     #[error(transparent)]
-    Controller(#[from] crate::control::ControllerError),
+    Node(#[from] crate::daemon::node::NodeError),
     #[error(transparent)]
     Bus(#[from] crate::bus::BusError),
     #[error("--seconds must be > 0 and --period > 0")]

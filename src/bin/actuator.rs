@@ -86,6 +86,26 @@ enum Command {
     /// The model lab: compare, diagnose, fit, report.
     #[command(flatten)]
     Lab(actuatord::lab::cli::LabCommand),
+    /// Read or write an object of a running daemon over SDO (types from its configuration).
+    Sdo {
+        #[arg(long, default_value = "vcan0")]
+        iface: String,
+        /// The daemon's node id.
+        #[arg(long, default_value_t = 1)]
+        node: u8,
+        /// The daemon's configuration, for the objects' names and types (raw hex without it).
+        #[arg(long, default_value = "config/solenoid.toml")]
+        config: PathBuf,
+        #[arg(long, default_value_t = 1.0)]
+        timeout_s: f64,
+        #[command(subcommand)]
+        op: SdoOp,
+    },
+    /// Print the EDS (CiA 306) of a configuration's object dictionary.
+    Eds {
+        #[arg(long, default_value = "config/solenoid.toml")]
+        config: PathBuf,
+    },
     /// Print the DBC of the protocol for the given node ids (dbc/actuatord.dbc is 1 and 16).
     Dbc {
         #[arg(long, default_value_t = 1)]
@@ -93,6 +113,14 @@ enum Command {
         #[arg(long, default_value_t = 16)]
         actuator_node: u8,
     },
+}
+
+#[derive(Subcommand, Debug)]
+enum SdoOp {
+    /// Read INDEX:SUB (hex, e.g. 2004:01) or a name (e.g. axis0_setpoint.setpoint_position).
+    Read { object: String },
+    /// Write VALUE to INDEX:SUB or a name; the value in the object's type (hex bytes if unknown).
+    Write { object: String, value: String },
 }
 
 #[derive(Subcommand, Debug)]
@@ -278,6 +306,22 @@ fn run(args: Args) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Lab(cmd) => actuatord::lab::cli::run(cmd),
+        Command::Sdo {
+            iface,
+            node,
+            config,
+            timeout_s,
+            op,
+        } => sdo(&iface, node, &config, timeout_s, op),
+        Command::Eds { config } => {
+            let c = Config::load(&config)?;
+            let od = actuatord::daemon::dictionary::build(&c)?;
+            print!(
+                "{}",
+                actuatord::canopen::render_eds(&od, &actuatord::canopen::EdsInfo::default())
+            );
+            Ok(())
+        }
         Command::Design {
             what: DesignCommand::Robust { plant, out },
         } => {
@@ -350,6 +394,62 @@ fn run(args: Args) -> anyhow::Result<()> {
             );
             Ok(())
         }
+    }
+}
+
+/// One SDO transfer with a running daemon, printed as the object's type.
+fn sdo(iface: &str, node: u8, config: &Path, timeout_s: f64, op: SdoOp) -> anyhow::Result<()> {
+    use actuatord::canopen::sdo::{encode_text, format_bytes};
+    anyhow::ensure!(
+        (1..=127).contains(&node),
+        "--node must be 1..=127, got {node}"
+    );
+    let od = Config::load(config)
+        .ok()
+        .and_then(|c| actuatord::daemon::dictionary::build(&c).ok());
+    let object = match &op {
+        SdoOp::Read { object } | SdoOp::Write { object, .. } => object.clone(),
+    };
+    let (id, data_type) = match actuatord::canopen::od::ObjectId::parse(&object) {
+        Some(id) => (
+            id,
+            od.as_ref()
+                .and_then(|od| od.find(id).ok().map(|h| od.entry(h).data_type)),
+        ),
+        None => {
+            let od = od.as_ref().ok_or_else(|| {
+                anyhow::anyhow!(
+                    "{object}: names need a readable --config ({})",
+                    config.display()
+                )
+            })?;
+            let h = od
+                .lookup(&object)
+                .map_err(|e| anyhow::anyhow!("{object}: {e}"))?;
+            (od.entry(h).id, Some(od.entry(h).data_type))
+        }
+    };
+    let mut bus = SocketCanBus::open(iface)?;
+    let timeout = Duration::from_secs_f64(timeout_s);
+    let write = matches!(op, SdoOp::Write { .. });
+    let outcome = match op {
+        SdoOp::Read { .. } => actuatord::client::sdo_read(&mut bus, node, id, timeout)?,
+        SdoOp::Write { value, .. } => {
+            let bytes = encode_text(data_type, &value)
+                .map_err(|e| anyhow::anyhow!("{object}: value {value:?}: {e}"))?;
+            actuatord::client::sdo_write(&mut bus, node, id, &bytes, timeout)?
+        }
+    };
+    match outcome {
+        Ok(_) if write => {
+            println!("{id}: written");
+            Ok(())
+        }
+        Ok(bytes) => {
+            println!("{}", format_bytes(data_type, &bytes));
+            Ok(())
+        }
+        Err(e) => Err(anyhow::anyhow!("{e}")),
     }
 }
 

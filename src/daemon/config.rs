@@ -83,6 +83,8 @@ pub struct CycleConfig {
     pub realtime_priority: i32,
     /// Lock all memory (mlockall) so a page fault cannot stall the cycle.
     pub lock_memory: bool,
+    /// Share of a status period's cycles that may overrun before the timing warning is raised.
+    pub overrun_warning_ratio: f64,
 }
 
 impl Default for CycleConfig {
@@ -92,6 +94,7 @@ impl Default for CycleConfig {
             sensor_deadline_s: 0.0015,
             realtime_priority: 80,
             lock_memory: true,
+            overrun_warning_ratio: 0.05,
         }
     }
 }

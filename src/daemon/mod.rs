@@ -4,6 +4,7 @@
 pub mod axis;
 pub mod config;
 pub mod cycle;
+pub mod dictionary;
 pub mod node;
 pub mod notify;
 pub mod record;

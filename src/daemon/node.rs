@@ -3,6 +3,7 @@
 
 use super::axis::{Axis, AxisStep};
 use super::config::{cycles, CommandKind, Config};
+use super::dictionary::{self, LiveObjects, LoopFigures, WriteEffect};
 use super::record::{CycleRecord, Event, Record};
 use crate::bus::Frame;
 use crate::canopen::{
@@ -10,8 +11,10 @@ use crate::canopen::{
     FaultResetPdo, LoopStatusPdo, NmtCommand, NmtState, SensorPdo, SetpointPdo, SupplyPressurePdo,
     SyncCounter,
 };
+use crate::canopen::{ObjectDictionary, SdoServer};
 use crate::control::ControllerError;
 use crate::supervise::FaultState;
+use hdrhistogram::Histogram;
 
 /// Counters of the node since start.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -114,17 +117,57 @@ pub struct ControllerNode {
     pending_reset: bool,
     period_s: f64,
     stage_clock: Option<fn() -> u64>,
+    /// The configuration in force; SDO writes change it and rebuild what depends on it.
+    config: Config,
+    od: ObjectDictionary,
+    sdo: SdoServer,
+    live: LiveObjects,
+    /// SDO answers, sent with the cycle's frames (one request, one answer: a few suffice).
+    sdo_out: [Option<Frame>; 4],
+    axis_faults_raised: Vec<u64>,
+    axis_sensor_missed: Vec<u64>,
+    /// Release-to-command latency over the current status period, for its p99.
+    latency: Histogram<u64>,
+    wake_latency_max_s: f64,
+    overruns_at_window_start: u64,
+    timing_warning: bool,
+    /// Leaving operational: the actuators get their safe command with the next cycle.
+    pending_safe: bool,
+}
+
+/// Why the controller node cannot be built from a configuration.
+#[derive(Debug, thiserror::Error)]
+pub enum NodeError {
+    #[error(transparent)]
+    Controller(#[from] ControllerError),
+    #[error("object dictionary: {0}")]
+    Dictionary(#[from] crate::canopen::od::BuildError),
 }
 
 impl ControllerNode {
-    pub fn new(config: &Config) -> Result<Self, ControllerError> {
+    pub fn new(config: &Config) -> Result<Self, NodeError> {
         let period_s = config.cycle.period_s;
         let axes = config
             .axis
             .iter()
             .map(|a| Axis::new(a, period_s))
             .collect::<Result<Vec<_>, _>>()?;
+        let od = dictionary::build(config)?;
+        let live = LiveObjects::new(&od, axes.len());
         Ok(Self {
+            config: config.clone(),
+            sdo: SdoServer::new(config.node.node_id),
+            live,
+            od,
+            sdo_out: [None; 4],
+            axis_faults_raised: vec![0; axes.len()],
+            axis_sensor_missed: vec![0; axes.len()],
+            latency: Histogram::new_with_bounds(1, 10_000_000, 2)
+                .expect("constant, valid histogram bounds"),
+            wake_latency_max_s: 0.0,
+            overruns_at_window_start: 0,
+            timing_warning: false,
+            pending_safe: false,
             node_id: config.node.node_id,
             state: NmtState::Initialising,
             last_fault_state: vec![(FaultState::Ok, 0, 0); axes.len()],
@@ -224,6 +267,16 @@ impl ControllerNode {
             }
             return;
         }
+        if id == crate::canopen::sdo::request_cob_id(self.node_id) {
+            if let Some(answer) = self.sdo.handle(frame, now_s, &mut self.od, self.state) {
+                match self.sdo_out.iter_mut().find(|s| s.is_none()) {
+                    Some(slot) => *slot = Some(answer),
+                    // A client that does not wait for answers: drop the surplus, it will time out.
+                    None => self.counters.frames_unknown += 1,
+                }
+            }
+            return;
+        }
         if id == messages::SYNC.cob_id(0) {
             // Another SYNC producer on the bus; ours is the one that counts. Check it decodes.
             if let Err(e) = decode_sync(frame) {
@@ -318,15 +371,24 @@ impl ControllerNode {
     }
 
     fn on_nmt(&mut self, cmd: NmtCommand, now_s: f64, record: &mut dyn FnMut(Record)) {
+        let was_operational = self.state == NmtState::Operational;
         match cmd {
             NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
                 self.reset_faults(0, now_s, record);
+                self.sdo.reset();
                 // We are the NMT master: after a reset we boot again and start our nodes.
                 self.pending_reset = true;
             }
             other => {
                 self.state = self.state.on_command(other);
+                if self.state == NmtState::Stopped {
+                    self.sdo.reset();
+                }
             }
+        }
+        // PDOs stop outside operational: the actuators must not keep the last command.
+        if was_operational && self.state != NmtState::Operational {
+            self.pending_safe = true;
         }
         record(Record::Event(Event::OwnState {
             t_s: now_s,
@@ -365,10 +427,28 @@ impl ControllerNode {
         let cycle = self.counters.cycles;
         self.counters.cycles += 1;
         self.latency_max_s = self.latency_max_s.max(timing.previous_cycle_latency_s);
+        self.wake_latency_max_s = self.wake_latency_max_s.max(timing.wake_latency_s);
+        if timing.previous_cycle_latency_s > 0.0 {
+            let _ = self
+                .latency
+                .record(((timing.previous_cycle_latency_s * 1e6) as u64).max(1));
+        }
         if self.pending_reset {
             self.pending_reset = false;
             self.boot(send, record);
         }
+        if std::mem::take(&mut self.pending_safe) {
+            self.send_safe_commands(send);
+        }
+        if let Some(abort) = self.sdo.poll(now_s) {
+            send(&abort);
+        }
+        for slot in self.sdo_out.iter_mut() {
+            if let Some(f) = slot.take() {
+                send(&f);
+            }
+        }
+        self.apply_sdo_writes(now_s, record);
         let operational = self.state == NmtState::Operational;
         let sync_counter = self.sync.value();
         let status_due = cycle % u64::from(self.status_every) == 0;
@@ -389,6 +469,7 @@ impl ControllerNode {
             let node = axis.actuator_node_id;
             if !step.sensor_fresh {
                 self.counters.sensor_missed += 1;
+                self.axis_sensor_missed[index] += 1;
             }
             if operational {
                 let command = match axis.command_kind {
@@ -407,6 +488,7 @@ impl ControllerNode {
             }
             for kind in step.supervision.raised.iter() {
                 self.counters.faults_raised += 1;
+                self.axis_faults_raised[index] += 1;
                 let emcy = step.emcy(Emcy::raised(node, kind, step.supervision.latched));
                 send(&emcy.encode(self.node_id));
                 record(Record::Event(Event::FaultRaised {
@@ -418,6 +500,7 @@ impl ControllerNode {
             }
             for fault in step.supervised_raised() {
                 self.counters.faults_raised += 1;
+                self.axis_faults_raised[index] += 1;
                 let emcy = step.emcy(Emcy::supervised(node, fault, step.supervision.latched));
                 send(&emcy.encode(self.node_id));
                 record(Record::Event(Event::Diagnosed {
@@ -439,7 +522,12 @@ impl ControllerNode {
                 send(&Emcy::reset(node).encode(self.node_id));
             }
             if operational && (status_due || now_state != last) {
-                send(&step.fault_state(node).encode(self.node_id));
+                let mut fault_state = step.fault_state(node);
+                // A cycle that misses its deadlines too often is a warning on every axis.
+                if self.timing_warning && fault_state.state == FaultState::Ok {
+                    fault_state.state = FaultState::Warning;
+                }
+                send(&fault_state.encode(self.node_id));
                 send(&step.fault_diagnosis(node).encode(self.node_id));
             }
             self.last_fault_state[index] = now_state;
@@ -450,7 +538,19 @@ impl ControllerNode {
             timer.mark(Stage::EncodeSend);
             let mut rec = cycle_record(now_s, cycle, node, axis, &step, timing);
             rec.stage_ns = timer.stage_ns;
+            if status_due {
+                self.live.publish_axis(
+                    &mut self.od,
+                    index,
+                    &rec,
+                    self.axis_faults_raised[index],
+                    self.axis_sensor_missed[index],
+                );
+            }
             record(Record::Cycle(rec));
+        }
+        if status_due {
+            self.close_status_window(now_s, record);
         }
         if operational && status_due {
             send(
@@ -462,7 +562,11 @@ impl ControllerNode {
                 }
                 .encode(self.node_id),
             );
+        }
+        if status_due {
             self.latency_max_s = 0.0;
+            self.wake_latency_max_s = 0.0;
+            self.latency.reset();
         }
         if cycle % u64::from(self.heartbeat_every) == 0 {
             send(&encode_heartbeat(self.node_id, self.state));
@@ -470,8 +574,130 @@ impl ControllerNode {
         self.sync = self.sync.next();
     }
 
-    /// Leave operation: every axis gets its safe command once.
-    pub fn shutdown(&mut self, send: &mut dyn FnMut(&Frame)) {
+    /// The statistics of the status period just ended: published, and judged for the warning.
+    fn close_status_window(&mut self, now_s: f64, record: &mut dyn FnMut(Record)) {
+        let overruns = self.counters.overruns - self.overruns_at_window_start;
+        self.overruns_at_window_start = self.counters.overruns;
+        let ratio = overruns as f64 / f64::from(self.status_every);
+        let warning = ratio > self.config.cycle.overrun_warning_ratio;
+        if warning != self.timing_warning {
+            record(Record::Event(Event::Timing {
+                t_s: now_s,
+                overrun_ratio: ratio,
+                warning,
+            }));
+        }
+        self.timing_warning = warning;
+        let p99 = if self.latency.is_empty() {
+            0.0
+        } else {
+            self.latency.value_at_quantile(0.99) as f64 * 1e-6
+        };
+        // CiA 301 error register: bit 0 any error, bit 7 manufacturer-specific (timing).
+        let any_fault = self
+            .last_fault_state
+            .iter()
+            .any(|(state, _, _)| *state != FaultState::Ok);
+        let error_register = u8::from(any_fault) | if warning { 0x80 } else { 0 };
+        self.live.publish_loop(
+            &mut self.od,
+            &LoopFigures {
+                error_register,
+                cycles: self.counters.cycles,
+                overruns: self.counters.overruns,
+                frames_malformed: self.counters.frames_malformed,
+                frames_unknown: self.counters.frames_unknown,
+                bus_errors: self.counters.bus_errors,
+                cycle_latency_max_s: self.latency_max_s,
+                cycle_latency_p99_s: p99,
+                wake_latency_max_s: self.wake_latency_max_s,
+            },
+        );
+    }
+
+    /// Staged SDO writes take effect together at this cycle boundary, or not at all.
+    fn apply_sdo_writes(&mut self, now_s: f64, record: &mut dyn FnMut(Record)) {
+        if self.od.pending_writes().is_empty() {
+            return;
+        }
+        let mut config = self.config.clone();
+        let mut effects = Vec::new();
+        let mut refused = None;
+        for w in self.od.take_pending_writes() {
+            match dictionary::apply_write(&mut config, &w) {
+                Ok(effect) => effects.push(effect),
+                Err(e) => {
+                    refused.get_or_insert(e);
+                }
+            }
+        }
+        let origin = std::path::Path::new("SDO write");
+        let rebuilt: Result<Vec<(usize, Axis)>, String> = effects
+            .iter()
+            .filter_map(|e| match e {
+                WriteEffect::Rebuild { axis } => Some(*axis),
+                _ => None,
+            })
+            .collect::<std::collections::BTreeSet<_>>()
+            .into_iter()
+            .map(|i| {
+                config.validate(origin).map_err(|e| e.to_string())?;
+                let mut axis =
+                    Axis::new(&config.axis[i], self.period_s).map_err(|e| e.to_string())?;
+                axis.set_setpoint(self.axes[i].setpoint());
+                Ok((i, axis))
+            })
+            .collect();
+        let result = refused.map_or(rebuilt, Err).and_then(|axes| {
+            if effects.contains(&WriteEffect::Node) {
+                config.validate(origin).map_err(|e| e.to_string())?;
+            }
+            Ok(axes)
+        });
+        match result {
+            Ok(axes) => {
+                for (i, axis) in axes {
+                    self.axes[i] = axis;
+                }
+                for effect in &effects {
+                    match *effect {
+                        WriteEffect::Setpoint { axis, position } => {
+                            if let Some(a) = self.axes.get_mut(axis) {
+                                a.set_setpoint(position);
+                            }
+                        }
+                        WriteEffect::FaultReset { axis } => {
+                            if let Some(node) = self.axes.get(axis).map(|a| a.actuator_node_id) {
+                                self.reset_faults(node, now_s, record);
+                            }
+                        }
+                        WriteEffect::Node => {
+                            self.heartbeat_every =
+                                cycles(config.node.heartbeat_period_s, self.period_s);
+                        }
+                        WriteEffect::Rebuild { .. } => {}
+                    }
+                }
+                self.config = config;
+                record(Record::Event(Event::ParametersApplied {
+                    t_s: now_s,
+                    writes: effects.len() as u32,
+                }));
+            }
+            Err(reason) => {
+                // Nothing applied: the dictionary shows the configuration in force again.
+                if let Ok(od) = dictionary::build(&self.config) {
+                    self.od = od;
+                }
+                record(Record::Event(Event::ParametersRefused {
+                    t_s: now_s,
+                    reason: reason.into(),
+                }));
+            }
+        }
+    }
+
+    fn send_safe_commands(&self, send: &mut dyn FnMut(&Frame)) {
         let sync_counter = self.sync.value();
         for axis in &self.axes {
             let safe = axis.safe_command();
@@ -488,6 +714,16 @@ impl ControllerNode {
                 .encode(axis.actuator_node_id),
             );
         }
+    }
+
+    /// The object dictionary, as SDO clients see it.
+    pub fn dictionary(&self) -> &ObjectDictionary {
+        &self.od
+    }
+
+    /// Leave operation: every axis gets its safe command once.
+    pub fn shutdown(&mut self, send: &mut dyn FnMut(&Frame)) {
+        self.send_safe_commands(send);
         self.state = NmtState::Stopped;
         send(&encode_heartbeat(self.node_id, self.state));
     }

@@ -120,6 +120,56 @@ pub enum Event {
         cycle: u64,
         late_s: f64,
     },
+    /// The overrun rate of a status period crossed `[cycle] overrun_warning_ratio`.
+    Timing {
+        t_s: f64,
+        overrun_ratio: f64,
+        warning: bool,
+    },
+    /// Staged SDO writes took effect at a cycle boundary.
+    ParametersApplied {
+        t_s: f64,
+        writes: u32,
+    },
+    /// Staged SDO writes were refused as a whole (the configuration would be invalid).
+    ParametersRefused {
+        t_s: f64,
+        reason: ReasonText,
+    },
+}
+
+/// A short message carried by value, so events stay `Copy` (cut at 120 bytes).
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub struct ReasonText {
+    bytes: [u8; 120],
+    len: u8,
+}
+
+impl From<String> for ReasonText {
+    fn from(text: String) -> Self {
+        let mut end = text.len().min(120);
+        while !text.is_char_boundary(end) {
+            end -= 1;
+        }
+        let mut bytes = [0u8; 120];
+        bytes[..end].copy_from_slice(&text.as_bytes()[..end]);
+        Self {
+            bytes,
+            len: end as u8,
+        }
+    }
+}
+
+impl std::fmt::Display for ReasonText {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(std::str::from_utf8(&self.bytes[..self.len as usize]).unwrap_or("?"))
+    }
+}
+
+impl std::fmt::Debug for ReasonText {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{:?}", self.to_string())
+    }
 }
 
 /// Everything the cycle sends to the writer thread.
@@ -147,7 +197,10 @@ impl Event {
             | Event::BusError { t_s, .. }
             | Event::NodeState { t_s, .. }
             | Event::OwnState { t_s, .. }
-            | Event::Overrun { t_s, .. } => t_s,
+            | Event::Overrun { t_s, .. }
+            | Event::Timing { t_s, .. }
+            | Event::ParametersApplied { t_s, .. }
+            | Event::ParametersRefused { t_s, .. } => t_s,
         }
     }
 
@@ -164,6 +217,9 @@ impl Event {
             Event::NodeState { .. } => "node_state",
             Event::OwnState { .. } => "own_state",
             Event::Overrun { .. } => "overrun",
+            Event::Timing { .. } => "timing",
+            Event::ParametersApplied { .. } => "parameters_applied",
+            Event::ParametersRefused { .. } => "parameters_refused",
         }
     }
 }
@@ -230,6 +286,22 @@ impl std::fmt::Display for Event {
                 state,
             } => write!(f, "t={t_s:.4}s node {node_id} is {}", state.name()),
             Event::OwnState { t_s, state } => write!(f, "t={t_s:.4}s controller is {}", state.name()),
+            Event::Timing {
+                t_s,
+                overrun_ratio,
+                warning,
+            } => write!(
+                f,
+                "t={t_s:.4}s {:.1} % of the last status period's cycles overran: timing warning {}",
+                overrun_ratio * 100.0,
+                if *warning { "raised" } else { "cleared" }
+            ),
+            Event::ParametersApplied { t_s, writes } => {
+                write!(f, "t={t_s:.4}s {writes} SDO write(s) applied at the cycle boundary")
+            }
+            Event::ParametersRefused { t_s, reason } => {
+                write!(f, "t={t_s:.4}s SDO writes refused, nothing applied: {reason}")
+            }
             Event::Overrun { t_s, cycle, late_s } => write!(
                 f,
                 "t={t_s:.4}s cycle {cycle} overran its period by {:.3} ms",

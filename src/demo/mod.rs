@@ -77,7 +77,7 @@ pub enum DemoError {
     #[error(transparent)]
     Plant(#[from] PhysicsError),
     #[error(transparent)]
-    Controller(#[from] crate::control::ControllerError),
+    Node(#[from] crate::daemon::node::NodeError),
     #[error(transparent)]
     Recorder(#[from] RecorderError),
     #[error(transparent)]

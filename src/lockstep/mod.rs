@@ -32,7 +32,7 @@ impl LockStep {
         config: &Config,
         plant: Box<dyn Plant>,
         faults: Vec<ScheduledFault>,
-    ) -> Result<Self, crate::control::ControllerError> {
+    ) -> Result<Self, crate::daemon::node::NodeError> {
         let period_s = config.cycle.period_s;
         let node_id = config.axis.first().map_or(16, |a| a.actuator_node_id);
         let mut rig = Self {

@@ -422,12 +422,24 @@ fn axis_objects(
             .doc("friction compensation command in use"),
         EntrySpec::ro("gain_schedule_factor", 1.0f64)
             .doc("controller gain factor from the supply schedule"),
-        EntrySpec::ro("estimated_k_i1", 0.0f64).doc("estimated K_I1 (parameter estimation)"),
-        EntrySpec::ro("estimated_k_i2", 0.0f64).doc("estimated K_I2 (parameter estimation)"),
-        EntrySpec::ro("observer_band_1", 0.0f64).doc("learned residual band of observer 1"),
-        EntrySpec::ro("observer_band_2", 0.0f64).doc("learned residual band of observer 2"),
-        EntrySpec::ro("observer_band_3", 0.0f64).doc("learned residual band of observer 3"),
-        EntrySpec::ro("observer_band_4", 0.0f64).doc("learned residual band of observer 4"),
+        EntrySpec::ro("friction_compensation_pos", 0.0f64)
+            .unit(cu)
+            .doc("adapted friction compensation for motion in + direction"),
+        EntrySpec::ro("friction_compensation_neg", 0.0f64)
+            .unit(cu)
+            .doc("adapted friction compensation for motion in - direction"),
+        EntrySpec::ro("drive_gain_down", 0.0f64)
+            .unit("m/s")
+            .doc("drive gain K_I1 in use (estimated when adapting, scheduled otherwise)"),
+        EntrySpec::ro("drive_gain_up", 0.0f64)
+            .unit("m/s")
+            .doc("drive gain K_I2 in use (estimated when adapting, scheduled otherwise)"),
+        EntrySpec::ro("observer_x4_pos", 0.0f64)
+            .unit("m")
+            .doc("observer disturbance state x4 learned for motion in + direction"),
+        EntrySpec::ro("observer_x4_neg", 0.0f64)
+            .unit("m")
+            .doc("observer disturbance state x4 learned for motion in - direction"),
     ];
     Ok(b
         .record(

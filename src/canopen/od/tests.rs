@@ -273,8 +273,8 @@ fn daemon_dictionary_has_the_standard_and_axis_objects() {
     // Results are read-only; learned results and statistics too.
     for name in [
         "friction_compensation",
-        "estimated_k_i1",
-        "observer_band_4",
+        "drive_gain_down",
+        "observer_x4_neg",
         "fault_state",
     ] {
         let h = od.handle_by_name(Some(1), name).expect(name);

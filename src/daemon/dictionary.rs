@@ -1,0 +1,355 @@
+//! The daemon's object dictionary: built from the configuration, fed with live values, and
+//! the way SDO writes reach the configuration at a cycle boundary.
+
+use super::config::{AxisConfig, CommandKind, Config, FrictionCompensationConfig};
+use super::record::CycleRecord;
+use crate::canopen::od::{
+    daemon_dictionary, AxisParameters, BuildError, DeviceParameters, Handle, PendingWrite,
+};
+use crate::canopen::{ObjectDictionary, Value};
+
+/// One entry per configuration value the dictionary carries.
+pub fn axis_parameters(a: &AxisConfig) -> AxisParameters {
+    let mut q = [0.0; 6];
+    for (slot, v) in q.iter_mut().zip(&a.controller.q_per_m) {
+        *slot = *v;
+    }
+    let mut p = [0.0; 6];
+    for (slot, v) in p.iter_mut().zip(&a.controller.p) {
+        *slot = *v;
+    }
+    let f = a.friction_compensation.as_ref();
+    let l = &a.limits;
+    let inf = f64::INFINITY;
+    AxisParameters {
+        name: a.name.clone(),
+        actuator_node_id: a.actuator_node_id,
+        command_duty: a.command == CommandKind::Duty,
+        safe_command: a.safe_command,
+        initial_setpoint_m: a.initial_setpoint_m,
+        setpoint_rate_max_m_per_s: a.setpoint_rate_max_m_per_s.unwrap_or(inf),
+        q_per_m: q,
+        p,
+        output_min: a.controller.output_min,
+        output_max: a.controller.output_max,
+        friction_compensation_enabled: f.is_some(),
+        alpha: f.map_or(1.0, |f| f.alpha),
+        coulomb_pos_n: f.map_or(0.0, |f| f.coulomb_pos_n),
+        coulomb_neg_n: f.map_or(0.0, |f| f.coulomb_neg_n),
+        force_gain_n_per_command: f.map_or(1.0, |f| f.force_gain_n_per_command),
+        deadband_m: f.map_or(0.0, |f| f.deadband_m),
+        following_error_m: l.following_error_m.unwrap_or(inf),
+        following_error_time_s: l.following_error_time_s,
+        position_min_m: l.position_min_m.unwrap_or(-inf),
+        position_max_m: l.position_max_m.unwrap_or(inf),
+        current_max_a: l.current_max_a.unwrap_or(inf),
+        current_time_s: l.current_time_s,
+        supply_voltage_min_v: l.supply_voltage_min_v.unwrap_or(-inf),
+        supply_voltage_max_v: l.supply_voltage_max_v.unwrap_or(inf),
+        supply_pressure_min_pa: l.supply_pressure_min_pa.unwrap_or(-inf),
+        supply_pressure_max_pa: l.supply_pressure_max_pa.unwrap_or(inf),
+        supply_time_s: l.supply_time_s,
+        sensor_timeout_s: l.sensor_timeout_s,
+        heartbeat_timeout_s: l.heartbeat_timeout_s.unwrap_or(inf),
+    }
+}
+
+pub fn device_parameters(c: &Config) -> DeviceParameters {
+    DeviceParameters {
+        node_id: c.node.node_id,
+        heartbeat_period_s: c.node.heartbeat_period_s,
+        ..DeviceParameters::default()
+    }
+}
+
+/// The dictionary of a configuration.
+pub fn build(config: &Config) -> Result<ObjectDictionary, BuildError> {
+    let axes: Vec<_> = config.axis.iter().map(axis_parameters).collect();
+    daemon_dictionary(&device_parameters(config), &axes)
+}
+
+/// The axis' friction compensation, created (neutral) by the first write to one of its keys.
+fn friction(a: &mut AxisConfig) -> &mut FrictionCompensationConfig {
+    a.friction_compensation
+        .get_or_insert(FrictionCompensationConfig {
+            alpha: 1.0,
+            coulomb_pos_n: 0.0,
+            coulomb_neg_n: 0.0,
+            force_gain_n_per_command: 1.0,
+            deadband_m: 0.0,
+        })
+}
+
+/// What a write asks the node to do.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum WriteEffect {
+    /// A new setpoint for an axis, now.
+    Setpoint { axis: usize, position: f64 },
+    /// Clear an axis' latched faults.
+    FaultReset { axis: usize },
+    /// The configuration changed: rebuild this axis from it (only writable in pre-operational).
+    Rebuild { axis: usize },
+    /// The node-wide configuration changed (heartbeat period).
+    Node,
+}
+
+/// Apply one staged write to `config`. Infinite bounds mean "not watched", as in the dictionary.
+pub fn apply_write(config: &mut Config, w: &PendingWrite) -> Result<WriteEffect, String> {
+    let number = match w.value {
+        Value::Real64(v) => v,
+        Value::Real32(v) => f64::from(v),
+        Value::Unsigned16(v) => f64::from(v),
+        Value::Unsigned32(v) => f64::from(v),
+        Value::Boolean(b) => f64::from(u8::from(b)),
+        _ => f64::NAN,
+    };
+    let Some(axis) = w.axis else {
+        return match w.name {
+            "producer_heartbeat_time" => {
+                config.node.heartbeat_period_s = number * 1e-3;
+                Ok(WriteEffect::Node)
+            }
+            other => Err(format!("{}: {other} is not writable here", w.id)),
+        };
+    };
+    let a = config
+        .axis
+        .get_mut(axis)
+        .ok_or_else(|| format!("{}: no axis {axis}", w.id))?;
+    let finite = |v: f64| v.is_finite().then_some(v);
+    let name = w.name;
+    if let Some(j) = name
+        .strip_prefix('q')
+        .and_then(|r| r.strip_suffix("_per_m"))
+        .and_then(|d| d.parse::<usize>().ok())
+    {
+        let q = &mut a.controller.q_per_m;
+        if q.len() <= j {
+            q.resize(j + 1, 0.0);
+        }
+        q[j] = number;
+        while q.len() > 1 && q.last() == Some(&0.0) {
+            q.pop();
+        }
+        return Ok(WriteEffect::Rebuild { axis });
+    }
+    if let Some(i) = name
+        .strip_prefix('p')
+        .and_then(|d| d.parse::<usize>().ok())
+        .filter(|i| *i >= 1)
+    {
+        let p = &mut a.controller.p;
+        if p.len() < i {
+            p.resize(i, 0.0);
+        }
+        p[i - 1] = number;
+        while p.last() == Some(&0.0) {
+            p.pop();
+        }
+        return Ok(WriteEffect::Rebuild { axis });
+    }
+    let l = &mut a.limits;
+    match name {
+        "setpoint_position" => {
+            return Ok(WriteEffect::Setpoint {
+                axis,
+                position: number,
+            })
+        }
+        "fault_reset" => return Ok(WriteEffect::FaultReset { axis }),
+        "output_min" => a.controller.output_min = number,
+        "output_max" => a.controller.output_max = number,
+        "safe_command" => a.safe_command = number,
+        "setpoint_rate_max_m_per_s" => a.setpoint_rate_max_m_per_s = finite(number),
+        "enabled" => {
+            if number == 0.0 {
+                a.friction_compensation = None;
+            } else {
+                friction(a);
+            }
+        }
+        "alpha" => friction(a).alpha = number,
+        "coulomb_pos_n" => friction(a).coulomb_pos_n = number,
+        "coulomb_neg_n" => friction(a).coulomb_neg_n = number,
+        "force_gain_n_per_command" => friction(a).force_gain_n_per_command = number,
+        "deadband_m" => friction(a).deadband_m = number,
+        "following_error_m" => l.following_error_m = finite(number),
+        "following_error_time_s" => l.following_error_time_s = number,
+        "position_min_m" => l.position_min_m = finite(number),
+        "position_max_m" => l.position_max_m = finite(number),
+        "current_max_a" => l.current_max_a = finite(number),
+        "current_time_s" => l.current_time_s = number,
+        "supply_voltage_min_v" => l.supply_voltage_min_v = finite(number),
+        "supply_voltage_max_v" => l.supply_voltage_max_v = finite(number),
+        "supply_pressure_min_pa" => l.supply_pressure_min_pa = finite(number),
+        "supply_pressure_max_pa" => l.supply_pressure_max_pa = finite(number),
+        "supply_time_s" => l.supply_time_s = number,
+        "sensor_timeout_s" => l.sensor_timeout_s = number,
+        "heartbeat_timeout_s" => l.heartbeat_timeout_s = finite(number),
+        other => return Err(format!("{}: {other} is not writable here", w.id)),
+    }
+    Ok(WriteEffect::Rebuild { axis })
+}
+
+/// Handles of the values the node publishes, looked up once so publishing is a store.
+pub struct LiveObjects {
+    error_register: Option<Handle>,
+    cycles: Option<Handle>,
+    overruns: Option<Handle>,
+    frames_malformed: Option<Handle>,
+    frames_unknown: Option<Handle>,
+    bus_errors: Option<Handle>,
+    cycle_latency_max_us: Option<Handle>,
+    cycle_latency_p99_us: Option<Handle>,
+    wake_latency_max_us: Option<Handle>,
+    axes: Vec<AxisObjects>,
+}
+
+struct AxisObjects {
+    fault_state: Option<Handle>,
+    fault_flags: Option<Handle>,
+    faults_raised: Option<Handle>,
+    sensor_missed: Option<Handle>,
+    setpoint_position: Option<Handle>,
+    friction_compensation: Option<Handle>,
+    friction_compensation_pos: Option<Handle>,
+    friction_compensation_neg: Option<Handle>,
+    gain_schedule_factor: Option<Handle>,
+    drive_gain_down: Option<Handle>,
+    drive_gain_up: Option<Handle>,
+    observer_x4_pos: Option<Handle>,
+    observer_x4_neg: Option<Handle>,
+}
+
+/// Node-wide figures published each status period.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct LoopFigures {
+    pub error_register: u8,
+    pub cycles: u64,
+    pub overruns: u64,
+    pub frames_malformed: u64,
+    pub frames_unknown: u64,
+    pub bus_errors: u64,
+    pub cycle_latency_max_s: f64,
+    pub cycle_latency_p99_s: f64,
+    pub wake_latency_max_s: f64,
+}
+
+fn us(s: f64) -> u32 {
+    (s * 1e6).round().clamp(0.0, f64::from(u32::MAX)) as u32
+}
+
+fn saturate(n: u64) -> u32 {
+    n.min(u64::from(u32::MAX)) as u32
+}
+
+impl LiveObjects {
+    pub fn new(od: &ObjectDictionary, axes: usize) -> Self {
+        let n = |name: &str| od.handle_by_name(None, name);
+        let a = |i: usize, name: &str| od.handle_by_name(Some(i), name);
+        Self {
+            error_register: n("error_register"),
+            cycles: n("cycles"),
+            overruns: n("overruns"),
+            frames_malformed: n("frames_malformed"),
+            frames_unknown: n("frames_unknown"),
+            bus_errors: n("bus_errors"),
+            cycle_latency_max_us: n("cycle_latency_max_us"),
+            cycle_latency_p99_us: n("cycle_latency_p99_us"),
+            wake_latency_max_us: n("wake_latency_max_us"),
+            axes: (0..axes)
+                .map(|i| AxisObjects {
+                    fault_state: a(i, "fault_state"),
+                    fault_flags: a(i, "fault_flags"),
+                    faults_raised: a(i, "faults_raised"),
+                    sensor_missed: a(i, "sensor_missed"),
+                    setpoint_position: a(i, "setpoint_position"),
+                    friction_compensation: a(i, "friction_compensation"),
+                    friction_compensation_pos: a(i, "friction_compensation_pos"),
+                    friction_compensation_neg: a(i, "friction_compensation_neg"),
+                    gain_schedule_factor: a(i, "gain_schedule_factor"),
+                    drive_gain_down: a(i, "drive_gain_down"),
+                    drive_gain_up: a(i, "drive_gain_up"),
+                    observer_x4_pos: a(i, "observer_x4_pos"),
+                    observer_x4_neg: a(i, "observer_x4_neg"),
+                })
+                .collect(),
+        }
+    }
+
+    /// Publish the node-wide figures.
+    pub fn publish_loop(&self, od: &mut ObjectDictionary, f: &LoopFigures) {
+        let mut put = |h: Option<Handle>, v: Value| {
+            if let Some(h) = h {
+                // The types are fixed by the table above; a mismatch would be a build-time bug.
+                let _ = od.publish(h, v);
+            }
+        };
+        put(self.error_register, Value::Unsigned8(f.error_register));
+        put(self.cycles, Value::Unsigned32(saturate(f.cycles)));
+        put(self.overruns, Value::Unsigned32(saturate(f.overruns)));
+        put(
+            self.frames_malformed,
+            Value::Unsigned32(saturate(f.frames_malformed)),
+        );
+        put(
+            self.frames_unknown,
+            Value::Unsigned32(saturate(f.frames_unknown)),
+        );
+        put(self.bus_errors, Value::Unsigned32(saturate(f.bus_errors)));
+        put(
+            self.cycle_latency_max_us,
+            Value::Unsigned32(us(f.cycle_latency_max_s)),
+        );
+        put(
+            self.cycle_latency_p99_us,
+            Value::Unsigned32(us(f.cycle_latency_p99_s)),
+        );
+        put(
+            self.wake_latency_max_us,
+            Value::Unsigned32(us(f.wake_latency_max_s)),
+        );
+    }
+
+    /// Publish one axis' values from its cycle record.
+    pub fn publish_axis(
+        &self,
+        od: &mut ObjectDictionary,
+        axis: usize,
+        r: &CycleRecord,
+        faults_raised: u64,
+        sensor_missed: u64,
+    ) {
+        let Some(h) = self.axes.get(axis) else { return };
+        let mut put = |h: Option<Handle>, v: Value| {
+            if let Some(h) = h {
+                let _ = od.publish(h, v);
+            }
+        };
+        put(h.fault_state, Value::Unsigned8(r.fault_state));
+        put(h.fault_flags, Value::Unsigned16(r.fault_flags));
+        put(h.faults_raised, Value::Unsigned32(saturate(faults_raised)));
+        put(h.sensor_missed, Value::Unsigned32(saturate(sensor_missed)));
+        put(h.setpoint_position, Value::Real64(r.setpoint_position));
+        put(
+            h.friction_compensation,
+            Value::Real64(r.friction_compensation),
+        );
+        put(
+            h.friction_compensation_pos,
+            Value::Real64(r.friction_compensation_pos),
+        );
+        put(
+            h.friction_compensation_neg,
+            Value::Real64(r.friction_compensation_neg),
+        );
+        put(
+            h.gain_schedule_factor,
+            Value::Real64(r.gain_schedule_factor),
+        );
+        put(h.drive_gain_down, Value::Real64(r.drive_gain_down));
+        put(h.drive_gain_up, Value::Real64(r.drive_gain_up));
+        put(h.observer_x4_pos, Value::Real64(r.observer_x4_pos));
+        put(h.observer_x4_neg, Value::Real64(r.observer_x4_neg));
+    }
+}
