@@ -626,3 +626,49 @@ fn sdo_clients_read_and_write_objects_and_cantools_decodes_the_bus() {
     assert!(text.contains(":: sensor(position:"));
     assert!(text.contains(":: fault_state("));
 }
+
+#[test]
+#[ignore = "needs vcan0, candump and cansend: run through scripts/vcan-run (scripts/test does)"]
+fn the_realtime_bench_runs_against_vcan() {
+    let out = Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .args([
+            "bench",
+            "rt",
+            "--iface",
+            &iface(),
+            "--seconds",
+            "2",
+            "--json",
+            "--config",
+        ])
+        .arg(root("config/solenoid.toml"))
+        .arg("--plant")
+        .arg(root("config/plants/solenoid.toml"))
+        .output()
+        .expect("actuator bench rt runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    // Figures are reported, never judged here: only that both loops ran and were measured.
+    for lp in ["daemon", "baseline"] {
+        assert!(v[lp]["cycles"].as_u64().unwrap_or(0) > 100, "{lp}: {v}");
+        for key in ["p50", "p99", "p999", "max"] {
+            assert!(
+                v[lp]["lateness_us"][key].is_number(),
+                "{lp}.lateness_us.{key}: {v}"
+            );
+        }
+    }
+    assert_eq!(v["bus"], iface());
+    eprintln!(
+        "vcan: bench rt on {}: daemon lateness p50 {} µs p99 {} µs, sensor-to-command p50 {} µs; baseline p50 {} µs",
+        iface(),
+        v["daemon"]["lateness_us"]["p50"],
+        v["daemon"]["lateness_us"]["p99"],
+        v["daemon"]["sensor_to_command_us"]["p50"],
+        v["baseline"]["lateness_us"]["p50"]
+    );
+}
