@@ -672,3 +672,94 @@ fn the_realtime_bench_runs_against_vcan() {
         v["baseline"]["lateness_us"]["p50"]
     );
 }
+
+#[test]
+#[ignore = "needs vcan0, candump and cansend: run through scripts/vcan-run (scripts/test does)"]
+fn the_robust_controller_runs_over_vcan_against_the_motor_gear_node() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let controller = dir.path().join("controller.toml");
+    let status = Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .args(["design", "robust", "--plant"])
+        .arg(root("config/plants/motor_gear.toml"))
+        .arg("--out")
+        .arg(&controller)
+        .stdout(Stdio::null())
+        .status()
+        .expect("actuator design runs");
+    assert!(status.success());
+    let text = std::fs::read_to_string(root("config/motor_gear.toml")).expect("config");
+    let text: String = text
+        .lines()
+        .filter(|l| !l.starts_with("q_per_m") && !l.starts_with("p = "))
+        .map(|l| {
+            if l == "[axis.controller]" {
+                format!("{l}\nstate_space_file = \"controller.toml\"\n")
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    let config = dir.path().join("robust.toml");
+    std::fs::write(&config, text).expect("write config");
+    let capture_path = dir.path().join("capture.log");
+    let mut candump = Proc(
+        Command::new("candump")
+            .args(["-L", &iface()])
+            .stdout(std::fs::File::create(&capture_path).expect("capture file"))
+            .spawn()
+            .expect("candump (can-utils) is installed"),
+    );
+    let mut sim = Proc(
+        Command::new(env!("CARGO_BIN_EXE_actuator"))
+            .args([
+                "sim",
+                "--iface",
+                &iface(),
+                "--family",
+                "motor_gear",
+                "--period-s",
+                "0.001",
+                "--plant",
+            ])
+            .arg(root("config/plants/motor_gear.toml"))
+            .spawn()
+            .expect("actuator sim starts"),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let status = Command::new(env!("CARGO_BIN_EXE_actuatord"))
+        .arg("--config")
+        .arg(&config)
+        .args(["--iface", &iface(), "--duration-s", "2.5"])
+        .status()
+        .expect("actuatord runs");
+    assert!(status.success());
+    interrupt(&mut sim);
+    let _ = sim.0.wait();
+    std::thread::sleep(Duration::from_millis(100));
+    interrupt(&mut candump);
+    let _ = candump.0.wait();
+    let text = std::fs::read_to_string(&capture_path).expect("capture");
+    let frames: Vec<(f64, Frame)> = text
+        .lines()
+        .filter_map(|l| parse_candump_line(l).ok())
+        .map(|r| (r.time_s, r.frame))
+        .collect();
+    let t0 = frames
+        .iter()
+        .find(|(_, f)| f.id() == 0x080)
+        .map(|(t, _)| *t)
+        .expect("SYNC");
+    // Setpoint 0.2 rad from 1 s (2 rad/s ramp): the mean angle over [1.9, 2.3) s.
+    let angles: Vec<f64> = frames
+        .iter()
+        .filter(|(t, f)| f.id() == 0x190 && f.len() == 8 && (1.9..2.3).contains(&(t - t0)))
+        .map(|(_, f)| SensorPdo::decode(f).expect("sensor").position)
+        .collect();
+    assert!(angles.len() > 100, "{} sensor frames", angles.len());
+    let mean = angles.iter().sum::<f64>() / angles.len() as f64;
+    eprintln!(
+        "vcan: robust controller at 1 kHz: 0.2 rad -> {mean:.4} rad over {} samples",
+        angles.len()
+    );
+    assert!((mean - 0.2).abs() < 0.03, "angle {mean}");
+}

@@ -15,6 +15,8 @@ pub enum ControllerError {
     NotFinite(&'static str),
     #[error("output limits need min < max, got [{0}, {1}]")]
     Limits(f64, f64),
+    #[error("controller file: {0}")]
+    File(String),
 }
 
 /// A discrete transfer function controller with output limits and anti-windup.

@@ -13,6 +13,7 @@ mod direction_p;
 mod dither;
 mod integrator_design;
 mod learned_table;
+mod linear;
 mod nonlinear_correction;
 mod param_error;
 mod scheduling;
@@ -29,6 +30,7 @@ pub use learned_table::{
     LearnedCellState, LearnedTable, LearnedTableConfig, LearnedTableState, OperatingPoint,
     LEARNED_TABLE_VERSION,
 };
+pub use linear::LinearController;
 pub use nonlinear_correction::{NonlinearCorrection, NonlinearCorrectionConfig};
 pub use param_error::ParamError;
 pub use scheduling::{GainSchedule, SchedulePoint, MAX_SCHEDULED};

@@ -10,9 +10,11 @@ use super::config::{cycles, AxisConfig, CommandKind, ScheduleVariable, SetpointS
 use crate::canopen::{
     Emcy, FaultDiagnosisPdo, FaultStatePdo, NmtState, SensorPdo, TunedGainsPdo, TunedParametersPdo,
 };
+use crate::control::robust::StateSpaceController;
 use crate::control::{
     AdaptiveFriction, ControllerError, DiscreteController, Dither, FrictionFeedForward,
-    GainSchedule, GainSource, NonlinearCorrection, ParamError, PneumaticAdaptive, PneumaticStep,
+    GainSchedule, GainSource, LinearController, NonlinearCorrection, ParamError, PneumaticAdaptive,
+    PneumaticStep,
 };
 use crate::supervise::{
     diagnose, symptoms, Band, DiagnosedFault, DisturbanceObserver, EstimatorHealth, FaultMachine,
@@ -264,7 +266,7 @@ pub struct Axis {
     pub command_kind: CommandKind,
     pub start_node: bool,
     safe_command: f64,
-    controller: DiscreteController,
+    controller: LinearController,
     friction: Option<FrictionFeedForward>,
     adaptive_friction: Option<AdaptiveFriction>,
     dither: Option<Dither>,
@@ -305,7 +307,18 @@ pub struct Axis {
 impl Axis {
     pub fn new(cfg: &AxisConfig, period_s: f64) -> Result<Self, ControllerError> {
         let c = &cfg.controller;
-        let mut controller = DiscreteController::new(&c.p, &c.q_per_m, c.output_min, c.output_max)?;
+        let mut controller = match &c.state_space_file {
+            Some(file) => LinearController::StateSpace(Box::new(
+                StateSpaceController::load(file)
+                    .map_err(|e| ControllerError::File(e.to_string()))?,
+            )),
+            None => LinearController::Discrete(DiscreteController::new(
+                &c.p,
+                &c.q_per_m,
+                c.output_min,
+                c.output_max,
+            )?),
+        };
         controller.preset(cfg.safe_command);
         let friction = cfg.friction_compensation.as_ref().map(|f| {
             FrictionFeedForward::from_forces(

@@ -178,7 +178,11 @@ fn yes() -> bool {
 #[serde(deny_unknown_fields)]
 pub struct ControllerConfig {
     /// Numerator coefficients q_0..q_m, command unit per m of error.
+    #[serde(default)]
     pub q_per_m: Vec<f64>,
+    /// A state-space controller file (`actuator design robust`) instead of `q_per_m`/`p`;
+    /// relative paths are taken from the configuration file's folder.
+    pub state_space_file: Option<std::path::PathBuf>,
     /// Denominator coefficients p_1..p_n (without the leading 1).
     #[serde(default)]
     pub p: Vec<f64>,
@@ -493,10 +497,18 @@ impl Config {
 
     /// Parse and validate TOML text; `file` names it in errors.
     pub fn from_toml(text: &str, file: &Path) -> Result<Self, ConfigError> {
-        let config: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+        let mut config: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
             file: file.to_path_buf(),
             message: e.to_string().trim_end().replace('\n', "\n  "),
         })?;
+        let folder = file.parent().unwrap_or(Path::new("."));
+        for axis in config.axis.iter_mut() {
+            if let Some(f) = axis.controller.state_space_file.as_mut() {
+                if f.is_relative() {
+                    *f = folder.join(&*f);
+                }
+            }
+        }
         config.validate(file)?;
         Ok(config)
     }
@@ -563,7 +575,31 @@ impl Config {
             }
             seen.push(axis.actuator_node_id);
             let c = &axis.controller;
-            if c.q_per_m.is_empty() || c.q_per_m.len() > crate::control::MAX_ORDER {
+            if let Some(f) = &c.state_space_file {
+                if !c.q_per_m.is_empty() || !c.p.is_empty() {
+                    return Err(bad(
+                        &at("controller.state_space_file"),
+                        "replaces q_per_m and p: give one or the other".into(),
+                    ));
+                }
+                let ss = crate::control::robust::StateSpaceController::load(f).map_err(|e| {
+                    bad(
+                        &at("controller.state_space_file"),
+                        format!("cannot be used: {e}"),
+                    )
+                })?;
+                if (ss.period_s() - self.cycle.period_s).abs() > 1e-9 {
+                    return Err(bad(
+                        &at("controller.state_space_file"),
+                        format!(
+                            "{} was designed for a {} s period, the cycle runs at {} s",
+                            f.display(),
+                            ss.period_s(),
+                            self.cycle.period_s
+                        ),
+                    ));
+                }
+            } else if c.q_per_m.is_empty() || c.q_per_m.len() > crate::control::MAX_ORDER {
                 return Err(bad(
                     &at("controller.q_per_m"),
                     format!(
