@@ -7,7 +7,7 @@ use super::robust::StateSpaceController;
 /// Either form behind one interface: propose, commit what was applied, limits, restart.
 #[derive(Debug, Clone)]
 pub enum LinearController {
-    Discrete(DiscreteController),
+    Discrete(Box<DiscreteController>),
     StateSpace(Box<StateSpaceController>),
 }
 

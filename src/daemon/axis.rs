@@ -312,12 +312,12 @@ impl Axis {
                 StateSpaceController::load(file)
                     .map_err(|e| ControllerError::File(e.to_string()))?,
             )),
-            None => LinearController::Discrete(DiscreteController::new(
+            None => LinearController::Discrete(Box::new(DiscreteController::new(
                 &c.p,
                 &c.q_per_m,
                 c.output_min,
                 c.output_max,
-            )?),
+            )?)),
         };
         controller.preset(cfg.safe_command);
         let friction = cfg.friction_compensation.as_ref().map(|f| {
