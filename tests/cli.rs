@@ -105,3 +105,57 @@ fn the_committed_eds_is_the_rendered_dictionary_and_python_canopen_loads_it() {
     );
     assert_eq!(String::from_utf8_lossy(&py.stdout).trim(), "12032 1");
 }
+
+#[test]
+fn decode_names_every_frame_of_a_candump_log_and_what_does_not_decode() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let log = dir.path().join("capture.log");
+    let sensor = actuatord::canopen::SensorPdo {
+        position: 0.0125,
+        current_a: 1.5,
+        supply_voltage_v: 24.0,
+    }
+    .encode(16);
+    std::fs::write(
+        &log,
+        format!(
+            "{}\n(1.000100) vcan0 080#05\n(1.0002) vcan0 190#0102\n(1.0003) vcan0 5FF#00\nnot a frame\n",
+            actuatord::bus::write_candump_line(1.0, "vcan0", &sensor)
+        ),
+    )
+    .expect("write log");
+    let out = Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .arg("decode")
+        .arg(&log)
+        .output()
+        .expect("actuator runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 5, "{text}");
+    assert!(
+        lines[0].ends_with(":: sensor(position=0.0125 m, current=1.5 A, supply_voltage=24 V)"),
+        "{}",
+        lines[0]
+    );
+    assert!(
+        lines[1].ends_with(":: sync(sync_counter=5)"),
+        "{}",
+        lines[1]
+    );
+    assert!(
+        lines[2].ends_with(":: sensor with 2 data bytes, expected 8"),
+        "{}",
+        lines[2]
+    );
+    assert!(
+        lines[3].ends_with(":: id not in the protocol"),
+        "{}",
+        lines[3]
+    );
+    assert!(lines[4].contains("not decoded"), "{}", lines[4]);
+}

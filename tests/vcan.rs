@@ -570,9 +570,27 @@ fn sdo_clients_read_and_write_objects_and_cantools_decodes_the_bus() {
 
     // Another SDO client nobody here wrote: Python canopen over python-can's SocketCAN.
     let script = format!(
-        "import canopen\nnet = canopen.Network()\nnet.connect(interface='socketcan', channel='{}')\nnode = net.add_node(1, '{}')\nprint(node.sdo['loop_statistics']['cycles'].raw, node.sdo['axis0_setpoint']['setpoint_position'].raw)\nnet.disconnect()",
-        iface(),
-        root("dbc/actuatord.eds").display()
+        r#"import canopen
+net = canopen.Network()
+net.connect(interface="socketcan", channel="{iface}")
+node = net.add_node(1, "{eds}")
+cycles = node.sdo["loop_statistics"]["cycles"].raw
+setpoint = node.sdo["axis0_setpoint"]["setpoint_position"].raw
+name = node.sdo["manufacturer_device_name"].raw
+node.sdo["axis0_setpoint"]["setpoint_position"].raw = 0.011
+try:
+    node.sdo["axis0_setpoint"]["setpoint_position"].raw = 1.0
+    refused = "none"
+except canopen.SdoAbortedError as e:
+    refused = "%08X" % e.code
+import time
+time.sleep(0.2)
+after = node.sdo["axis0_setpoint"]["setpoint_position"].raw
+print(cycles, setpoint, name, refused, after)
+net.disconnect()
+"#,
+        iface = iface(),
+        eds = root("dbc/actuatord.eds").display()
     );
     let py = Command::new("python3")
         .args(["-c", &script])
@@ -580,7 +598,7 @@ fn sdo_clients_read_and_write_objects_and_cantools_decodes_the_bus() {
         .expect("python3 runs");
     let py_out = String::from_utf8_lossy(&py.stdout).to_string();
     eprintln!(
-        "vcan: python canopen read: {}{}",
+        "vcan: python canopen: cycles, setpoint, name (segmented), refused write, setpoint after write: {}{}",
         py_out.trim(),
         String::from_utf8_lossy(&py.stderr).trim()
     );
@@ -589,12 +607,20 @@ fn sdo_clients_read_and_write_objects_and_cantools_decodes_the_bus() {
         "{}",
         String::from_utf8_lossy(&py.stderr)
     );
-    let mut fields = py_out.split_whitespace();
-    let py_cycles: u64 = fields.next().and_then(|c| c.parse().ok()).expect("cycles");
+    let fields: Vec<&str> = py_out.split_whitespace().collect();
+    assert_eq!(fields.len(), 5, "{py_out}");
+    let py_cycles: u64 = fields[0].parse().expect("cycles");
     assert!(py_cycles > cycles, "{py_cycles} after {cycles}");
+    assert_eq!(fields[1].parse::<f64>().ok(), Some(0.012));
+    assert_eq!(fields[2], "actuatord", "segmented upload of 1008:00");
     assert_eq!(
-        fields.next().and_then(|s| s.parse::<f64>().ok()),
-        Some(0.012)
+        fields[3], "06090031",
+        "out-of-range write refused with 'value too high'"
+    );
+    assert_eq!(
+        fields[4].parse::<f64>().ok(),
+        Some(0.011),
+        "in-range write applied"
     );
 
     let status = daemon.0.wait().expect("actuatord ends");

@@ -101,6 +101,16 @@ enum Command {
         #[command(subcommand)]
         op: SdoOp,
     },
+    /// Decode a candump log (`candump -L`) into named signals with the protocol's table.
+    Decode {
+        /// The log file; `-` reads standard input.
+        #[arg(default_value = "-")]
+        log: PathBuf,
+        #[arg(long, default_value_t = 1)]
+        controller_node: u8,
+        #[arg(long, default_value_t = 16)]
+        actuator_node: u8,
+    },
     /// Print the EDS (CiA 306) of a configuration's object dictionary.
     Eds {
         #[arg(long, default_value = "config/solenoid.toml")]
@@ -313,6 +323,11 @@ fn run(args: Args) -> anyhow::Result<()> {
             timeout_s,
             op,
         } => sdo(&iface, node, &config, timeout_s, op),
+        Command::Decode {
+            log,
+            controller_node,
+            actuator_node,
+        } => decode(&log, controller_node, actuator_node),
         Command::Eds { config } => {
             let c = Config::load(&config)?;
             let od = actuatord::daemon::dictionary::build(&c)?;
@@ -395,6 +410,46 @@ fn run(args: Args) -> anyhow::Result<()> {
             Ok(())
         }
     }
+}
+
+/// Print every line of a candump log with its message and signals; say what does not decode.
+fn decode(log: &Path, controller_node: u8, actuator_node: u8) -> anyhow::Result<()> {
+    use std::io::BufRead;
+    let reader: Box<dyn BufRead> = if log == Path::new("-") {
+        Box::new(std::io::BufReader::new(std::io::stdin()))
+    } else {
+        Box::new(std::io::BufReader::new(std::fs::File::open(log).map_err(
+            |e| anyhow::anyhow!("{}: cannot open: {e}", log.display()),
+        )?))
+    };
+    let mut out = std::io::BufWriter::new(std::io::stdout().lock());
+    for (n, line) in reader.lines().enumerate() {
+        let line = line.map_err(|e| anyhow::anyhow!("{}:{}: {e}", log.display(), n + 1))?;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let text = match actuatord::bus::parse_candump_line(&line) {
+            Err(e) => format!("{line} :: not decoded: {e}"),
+            Ok(rec) => {
+                match actuatord::canopen::decode_frame(&rec.frame, controller_node, actuator_node) {
+                    None => format!("{line} :: id not in the protocol"),
+                    Some((m, Err(len))) => {
+                        format!(
+                            "{line} :: {} with {len} data bytes, expected {}",
+                            m.name, m.dlc
+                        )
+                    }
+                    Some((m, Ok(signals))) => {
+                        let fields: Vec<String> = signals.iter().map(|s| s.to_string()).collect();
+                        format!("{line} :: {}({})", m.name, fields.join(", "))
+                    }
+                }
+            }
+        };
+        std::io::Write::write_all(&mut out, text.as_bytes())?;
+        std::io::Write::write_all(&mut out, b"\n")?;
+    }
+    Ok(())
 }
 
 /// One SDO transfer with a running daemon, printed as the object's type.

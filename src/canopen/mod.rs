@@ -7,6 +7,7 @@
 
 mod codec;
 pub mod dbc;
+mod decode;
 pub mod eds;
 mod emcy;
 pub mod messages;
@@ -17,6 +18,7 @@ pub mod sdo;
 mod signal;
 
 pub use codec::{check_length, pack, unpack, DecodeError};
+pub use decode::{decode_frame, DecodedSignal};
 pub use eds::{render_eds, EdsInfo};
 pub use emcy::{error_code, error_register, supervised_error_code, Emcy, ERROR_RESET};
 pub use messages::{Message, FAULT_FLAG_NAMES, SUPERVISED_FLAG_NAMES, SYMPTOM_NAMES};
