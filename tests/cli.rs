@@ -159,3 +159,26 @@ fn decode_names_every_frame_of_a_candump_log_and_what_does_not_decode() {
     );
     assert!(lines[4].contains("not decoded"), "{}", lines[4]);
 }
+
+#[test]
+fn a_configuration_whose_traffic_does_not_fit_the_bus_is_refused() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let slow = dir.path().join("slow.toml");
+    let text = std::fs::read_to_string(root("config/solenoid.toml"))
+        .expect("config")
+        .replace(
+            "iface = \"vcan0\"",
+            "iface = \"vcan0\"\nbitrate_bps = 125000",
+        );
+    std::fs::write(&slow, text).expect("write");
+    let out = actuatord()
+        .args(["--config", slow.to_str().expect("utf-8 path")])
+        .output()
+        .expect("actuatord runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("slow.toml: [bus] max_load is 70 %, but the configured traffic needs"),
+        "{err}"
+    );
+}

@@ -69,6 +69,15 @@ fn run(args: Args) -> anyhow::Result<()> {
             "--duration-s must be > 0, got {d}"
         );
     }
+    let load = actuatord::daemon::bus_load::bus_load(&config);
+    tracing::info!(
+        "bus load {:.1} % of {} kbit/s ({:.0} frames/s, {:.0} kbit/s worst case with stuffing; limit {:.0} %)",
+        load.load * 100.0,
+        config.bus.bitrate_bps / 1000,
+        load.frames_per_s,
+        load.bits_per_s / 1000.0,
+        config.bus.max_load * 100.0
+    );
     let mut bus = SocketCanBus::open(&config.bus.iface)?;
     let mut node = ControllerNode::new(&config)?;
     let (sink, recorder) = Recorder::spawn(args.record.as_deref(), config.record.queue_depth)?;

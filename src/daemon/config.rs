@@ -50,6 +50,21 @@ pub struct Config {
 pub struct BusConfig {
     /// SocketCAN interface, e.g. "can0" or "vcan0".
     pub iface: String,
+    /// Bit rate of the bus, for the load check (vcan has none; it is checked all the same).
+    #[serde(default = "default_bitrate")]
+    pub bitrate_bps: u32,
+    /// Largest share of the bit rate the periodic traffic may take; above it the daemon refuses
+    /// to start.
+    #[serde(default = "default_max_load")]
+    pub max_load: f64,
+}
+
+fn default_bitrate() -> u32 {
+    500_000
+}
+
+fn default_max_load() -> f64 {
+    0.7
 }
 
 #[derive(Debug, Clone, Deserialize, PartialEq)]
@@ -537,6 +552,15 @@ impl Config {
         if self.bus.iface.is_empty() {
             return Err(bad("[bus] iface", "must name a CAN interface".into()));
         }
+        if self.bus.bitrate_bps == 0 {
+            return Err(bad("[bus] bitrate_bps", "must be > 0".into()));
+        }
+        if !(self.bus.max_load > 0.0 && self.bus.max_load <= 1.0) {
+            return Err(bad(
+                "[bus] max_load",
+                format!("must be in (0, 1], got {}", self.bus.max_load),
+            ));
+        }
         node_id("[node] node_id", self.node.node_id)?;
         positive("[node] heartbeat_period_s", self.node.heartbeat_period_s)?;
         positive("[node] status_period_s", self.node.status_period_s)?;
@@ -761,6 +785,19 @@ impl Config {
                 }
                 last = s.at_s;
             }
+        }
+        let load = super::bus_load::bus_load(self);
+        if load.load > self.bus.max_load {
+            return Err(bad(
+                "[bus] max_load",
+                format!(
+                    "is {:.0} %, but the configured traffic needs {:.0} kbit/s = {:.0} % of {} kbit/s: lower the rates or raise bitrate_bps",
+                    self.bus.max_load * 100.0,
+                    load.bits_per_s / 1000.0,
+                    load.load * 100.0,
+                    self.bus.bitrate_bps / 1000
+                ),
+            ));
         }
         Ok(())
     }
