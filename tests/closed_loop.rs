@@ -299,3 +299,56 @@ fn an_overrun_rate_above_the_threshold_is_a_timing_warning_on_the_bus() {
     rig.run_until(0.8);
     assert_eq!(states(&rig, from).last(), Some(&FaultState::Ok));
 }
+
+#[test]
+fn a_reload_changes_parameters_bumplessly_and_refuses_structural_changes() {
+    let mut rig = Rig::new(&[]);
+    rig.run_until(0.9);
+    let before = rig.records.last().copied().expect("record");
+    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/config/solenoid.toml"));
+    let text = std::fs::read_to_string(path).expect("config");
+    let changed = text.replace("following_error_m = 0.002", "following_error_m = 0.003");
+    assert_ne!(
+        changed, text,
+        "the shipped config has following_error_m = 0.002"
+    );
+    let new = Config::from_toml(&changed, path).expect("valid");
+    let mut events = vec![];
+    rig.controller
+        .reload(new, 0.9, &mut |r| events.push(format!("{r:?}")));
+    assert!(
+        events
+            .iter()
+            .any(|e| e.contains("Reloaded") && e.contains("axes_rebuilt: 1")),
+        "{events:?}"
+    );
+    rig.cycle();
+    let after = rig.records.last().copied().expect("record");
+    // Bumpless: the command goes on from where it was, not from the safe 0 V.
+    assert!(
+        (after.command_voltage - before.command_voltage).abs() < 0.5,
+        "{before:?} -> {after:?}"
+    );
+    let h = rig
+        .controller
+        .dictionary()
+        .lookup("axis0_limits.following_error_m")
+        .expect("object");
+    assert_eq!(rig.controller.dictionary().value(h).as_f64(), Some(0.003));
+
+    let structural = text.replace("actuator_node_id = 16", "actuator_node_id = 17");
+    let new = Config::from_toml(&structural, path).expect("valid on its own");
+    let mut events = vec![];
+    rig.controller
+        .reload(new, 1.0, &mut |r| events.push(format!("{r:?}")));
+    assert!(
+        events.iter().any(|e| e.contains("ReloadRefused")),
+        "{events:?}"
+    );
+    rig.run_until(1.5);
+    assert!(
+        (rig.position() - 0.010).abs() < 20e-6,
+        "still controlling axis 16: {}",
+        rig.position()
+    );
+}

@@ -789,3 +789,101 @@ fn the_robust_controller_runs_over_vcan_against_the_motor_gear_node() {
     );
     assert!((mean - 0.2).abs() < 0.03, "angle {mean}");
 }
+
+#[test]
+#[ignore = "needs vcan0, candump and cansend: run through scripts/vcan-run (scripts/test does)"]
+fn sighup_reloads_parameters_and_an_invalid_file_keeps_the_running_configuration() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let config = dir.path().join("reload.toml");
+    let text = std::fs::read_to_string(root("config/solenoid.toml")).expect("config");
+    std::fs::write(&config, &text).expect("write config");
+    let mut sim = Proc(
+        Command::new(env!("CARGO_BIN_EXE_actuator"))
+            .args(["sim", "--iface", &iface()])
+            .spawn()
+            .expect("actuator sim starts"),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let mut daemon = Proc(
+        Command::new(env!("CARGO_BIN_EXE_actuatord"))
+            .arg("--config")
+            .arg(&config)
+            .args(["--iface", &iface()])
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("actuatord starts"),
+    );
+    std::thread::sleep(Duration::from_millis(1000));
+    let hup = |p: &Proc| {
+        // SAFETY: plain kill(2) on a child we own.
+        unsafe { libc::kill(p.0.id() as libc::pid_t, libc::SIGHUP) };
+        std::thread::sleep(Duration::from_millis(500));
+    };
+    let read = |object: &str| {
+        let (ok, out, err) = sdo(&["read", object]);
+        assert!(ok, "{object}: {err}");
+        out
+    };
+    assert_eq!(
+        read("axis0_limits.following_error_m").parse::<f64>().ok(),
+        Some(0.002)
+    );
+    std::fs::write(
+        &config,
+        text.replace("following_error_m = 0.002", "following_error_m = 0.004"),
+    )
+    .expect("rewrite config");
+    hup(&daemon);
+    assert_eq!(
+        read("axis0_limits.following_error_m").parse::<f64>().ok(),
+        Some(0.004)
+    );
+    // An invalid file: refused with its message, the daemon keeps running on the last good one.
+    std::fs::write(
+        &config,
+        text.replace("period_s = 0.0025", "period_s = -1.0"),
+    )
+    .expect("rewrite");
+    hup(&daemon);
+    let cycles_a: u64 = read("loop_statistics.cycles").parse().expect("count");
+    std::thread::sleep(Duration::from_millis(300));
+    let cycles_b: u64 = read("loop_statistics.cycles").parse().expect("count");
+    assert!(
+        cycles_b > cycles_a,
+        "the cycle goes on: {cycles_a} then {cycles_b}"
+    );
+    assert_eq!(
+        read("axis0_limits.following_error_m").parse::<f64>().ok(),
+        Some(0.004)
+    );
+    // SAFETY: plain kill(2) on a child we own.
+    unsafe { libc::kill(daemon.0.id() as libc::pid_t, libc::SIGTERM) };
+    let out = daemon.0.wait_with_output_taken();
+    assert!(out.0.success());
+    assert!(
+        out.1
+            .contains("[cycle] period_s must be > 0, got -1; keeping the running configuration"),
+        "{}",
+        out.1
+    );
+    assert!(out.1.contains("configuration reloaded"), "{}", out.1);
+    interrupt(&mut sim);
+    let _ = sim.0.wait();
+}
+
+trait WaitTaken {
+    fn wait_with_output_taken(&mut self) -> (std::process::ExitStatus, String);
+}
+
+impl WaitTaken for Child {
+    /// Wait, then read what the child wrote to its piped stderr.
+    fn wait_with_output_taken(&mut self) -> (std::process::ExitStatus, String) {
+        use std::io::Read;
+        let mut err = String::new();
+        if let Some(mut e) = self.stderr.take() {
+            let _ = e.read_to_string(&mut err);
+        }
+        let status = self.wait().expect("child ends");
+        (status, err)
+    }
+}

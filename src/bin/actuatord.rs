@@ -2,7 +2,7 @@
 
 use actuatord::bus::SocketCanBus;
 use actuatord::daemon::notify::{watchdog_interval, Notifier};
-use actuatord::daemon::{run_cycle, Config, ControllerNode, CycleSettings, Recorder};
+use actuatord::daemon::{run_cycle_reloadable, Config, ControllerNode, CycleSettings, Recorder};
 use clap::Parser;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -60,7 +60,7 @@ fn notify(notifier: &Option<Notifier>, message: &str) {
 
 fn run(args: Args) -> anyhow::Result<()> {
     let mut config = Config::load(&args.config)?;
-    if let Some(iface) = args.iface {
+    if let Some(iface) = args.iface.clone() {
         config.bus.iface = iface;
     }
     if let Some(d) = args.duration_s {
@@ -101,13 +101,16 @@ fn run(args: Args) -> anyhow::Result<()> {
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()?;
-    let (mut term, mut int) = runtime.block_on(async {
+    let (mut term, mut int, mut hup) = runtime.block_on(async {
         use tokio::signal::unix::{signal, SignalKind};
         anyhow::Ok((
             signal(SignalKind::terminate())?,
             signal(SignalKind::interrupt())?,
+            signal(SignalKind::hangup())?,
         ))
     })?;
+    // SIGHUP hands a new, validated configuration to the cycle, which applies it at a boundary.
+    let (reload_tx, reload_rx) = std::sync::mpsc::sync_channel::<Box<Config>>(1);
     let notifier = Notifier::from_env().map_err(|e| anyhow::anyhow!("NOTIFY_SOCKET: {e}"))?;
     let stop = Arc::new(AtomicBool::new(false));
     let progress = Arc::new(AtomicU64::new(0));
@@ -118,13 +121,14 @@ fn run(args: Args) -> anyhow::Result<()> {
     let cycle = std::thread::Builder::new()
         .name("actuatord-cycle".into())
         .spawn(move || {
-            let result = run_cycle(
+            let result = run_cycle_reloadable(
                 &mut bus,
                 &mut node,
                 settings,
                 &cycle_stop,
                 &cycle_progress,
                 &cycle_sink,
+                Some(reload_rx),
             );
             let _ = done_tx.send(());
             (result, node.counters())
@@ -158,6 +162,20 @@ fn run(args: Args) -> anyhow::Result<()> {
                     break;
                 }
                 _ = &mut done_rx => break,
+                _ = hup.recv() => {
+                    match Config::load(&args.config) {
+                        Ok(mut new) => {
+                            if let Some(iface) = &args.iface {
+                                new.bus.iface = iface.clone();
+                            }
+                            match reload_tx.try_send(Box::new(new)) {
+                                Ok(()) => tracing::info!("SIGHUP: {} read, taking effect at the next cycle", args.config.display()),
+                                Err(_) => tracing::warn!("SIGHUP: a reload is still pending; this one is ignored"),
+                            }
+                        }
+                        Err(e) => tracing::error!("SIGHUP: {e}; keeping the running configuration"),
+                    }
+                }
                 _ = feed.tick(), if watchdog.is_some() => {
                     let now = progress.load(Ordering::Relaxed);
                     if now != last_seen {

@@ -514,6 +514,28 @@ impl Axis {
         self.setpoint
     }
 
+    /// A freshly built axis takes over from the one it replaces (a configuration reload): the
+    /// setpoint and its schedule position, the readings, the node's state and the command, so
+    /// the controller goes on from the output it was giving instead of jumping to the safe one.
+    /// Latched faults are kept: a reload is not a reset.
+    pub fn continue_from(&mut self, old: &Axis) {
+        self.setpoint = old.setpoint.clamp(self.travel.0, self.travel.1);
+        self.reference = old.reference;
+        self.next_step = old.next_step.min(self.schedule.len());
+        self.sensor = old.sensor;
+        self.supply_pressure_pa = old.supply_pressure_pa;
+        self.sensor_fresh = old.sensor_fresh;
+        self.missing_cycles = old.missing_cycles;
+        self.last_heartbeat_s = old.last_heartbeat_s;
+        self.node_state = old.node_state;
+        self.node_was_operational = old.node_was_operational;
+        self.supervisor.keep_latched(old.supervisor.latched());
+        if old.supervisor.latched().is_empty() {
+            self.last_command = old.last_command;
+            self.controller.preset(old.last_command);
+        }
+    }
+
     /// Clear latched faults; the controller restarts bumplessly from the safe command.
     pub fn reset_faults(&mut self) {
         self.supervisor.reset();

@@ -1,12 +1,14 @@
 //! The fixed-rate cycle: sleep to the release time, SYNC, gather sensor frames until the sensor
 //! deadline, control, send. Runs on its own thread; never touches disk or takes a shared lock.
 
+use super::config::Config;
 use super::node::{ControllerNode, CycleTiming};
 use super::record::{Event, Record};
 use super::recorder::RecordSink;
 use super::rt;
 use crate::bus::{Bus, BusError, BusEvent, Frame};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 /// Frames handled before SYNC per cycle: about a period's worth of a saturated 1 Mbit/s bus at
@@ -48,6 +50,7 @@ pub struct CycleRunner<'a> {
     sensor_wait: Duration,
     last_latency_s: f64,
     record_frames: bool,
+    reload: Option<Receiver<Box<Config>>>,
 }
 
 impl<'a> CycleRunner<'a> {
@@ -70,7 +73,14 @@ impl<'a> CycleRunner<'a> {
             sensor_wait: Duration::from_secs_f64(sensor_deadline_s),
             last_latency_s: 0.0,
             record_frames: false,
+            reload: None,
         }
+    }
+
+    /// New configurations (SIGHUP) arrive here; each takes effect at the next cycle boundary.
+    pub fn reload_from(mut self, rx: Option<Receiver<Box<Config>>>) -> Self {
+        self.reload = rx;
+        self
     }
 
     /// Also hand every frame sent and received to the recorder.
@@ -111,6 +121,9 @@ impl<'a> CycleRunner<'a> {
         let t_s = (k * self.period_ns) as f64 * 1e-9;
         let sink = self.sink;
         let mut record = |r: Record| sink.push(r);
+        if let Some(config) = self.reload.as_ref().and_then(|rx| rx.try_recv().ok()) {
+            self.node.reload(*config, t_s, &mut record);
+        }
 
         // Whatever is queued now arrived before this cycle's SYNC: handle it (setpoints, NMT,
         // heartbeats, sensor frames that missed the last deadline), then mark every axis as
@@ -207,6 +220,19 @@ pub fn run_cycle(
     progress: &AtomicU64,
     sink: &RecordSink,
 ) -> Result<CycleReport, BusError> {
+    run_cycle_reloadable(bus, node, settings, stop, progress, sink, None)
+}
+
+/// [`run_cycle`], taking new configurations from `reload` at cycle boundaries.
+pub fn run_cycle_reloadable(
+    bus: &mut dyn Bus,
+    node: &mut ControllerNode,
+    settings: CycleSettings,
+    stop: &AtomicBool,
+    progress: &AtomicU64,
+    sink: &RecordSink,
+    reload: Option<Receiver<Box<Config>>>,
+) -> Result<CycleReport, BusError> {
     let realtime =
         settings.realtime_priority > 0 && rt::set_fifo_priority(settings.realtime_priority).is_ok();
     let memory_locked = settings.lock_memory && rt::lock_memory().is_ok();
@@ -227,7 +253,8 @@ pub fn run_cycle(
         settings.period_s,
         settings.sensor_deadline_s,
     )
-    .record_frames(settings.record_frames);
+    .record_frames(settings.record_frames)
+    .reload_from(reload);
     runner.boot()?;
     let period_ns = runner.period_ns();
     let mut k: u64 = 0;

@@ -13,6 +13,6 @@ pub mod recorder;
 pub mod rt;
 
 pub use config::Config;
-pub use cycle::{run_cycle, CycleReport, CycleRunner, CycleSettings};
+pub use cycle::{run_cycle, run_cycle_reloadable, CycleReport, CycleRunner, CycleSettings};
 pub use node::ControllerNode;
 pub use recorder::{RecordSink, Recorder, RecorderReport};

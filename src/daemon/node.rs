@@ -716,6 +716,58 @@ impl ControllerNode {
         }
     }
 
+    /// Take a new configuration at this cycle boundary (SIGHUP). Only parameters may change:
+    /// node ids, axes, commands, period and bus stay; a structural change is refused whole.
+    pub fn reload(&mut self, new: Config, now_s: f64, record: &mut dyn FnMut(Record)) {
+        match self.try_reload(new) {
+            Ok(axes_rebuilt) => record(Record::Event(Event::Reloaded {
+                t_s: now_s,
+                axes_rebuilt,
+            })),
+            Err(reason) => record(Record::Event(Event::ReloadRefused {
+                t_s: now_s,
+                reason: reason.into(),
+            })),
+        }
+    }
+
+    fn try_reload(&mut self, new: Config) -> Result<u32, String> {
+        let old = &self.config;
+        let same_axes =
+            old.axis.len() == new.axis.len()
+                && old.axis.iter().zip(&new.axis).all(|(a, b)| {
+                    a.actuator_node_id == b.actuator_node_id && a.command == b.command
+                });
+        if old.node.node_id != new.node.node_id
+            || old.bus != new.bus
+            || old.cycle.period_s != new.cycle.period_s
+            || !same_axes
+        {
+            return Err(
+                "bus, node ids, axes, commands or the period changed: that needs a restart".into(),
+            );
+        }
+        let od = dictionary::build(&new).map_err(|e| e.to_string())?;
+        let mut rebuilt = Vec::new();
+        for (i, (a, b)) in old.axis.iter().zip(&new.axis).enumerate() {
+            if a != b {
+                let mut axis = Axis::new(b, self.period_s).map_err(|e| e.to_string())?;
+                axis.continue_from(&self.axes[i]);
+                rebuilt.push((i, axis));
+            }
+        }
+        let count = rebuilt.len() as u32;
+        for (i, axis) in rebuilt {
+            self.axes[i] = axis;
+        }
+        self.heartbeat_every = cycles(new.node.heartbeat_period_s, self.period_s);
+        self.status_every = cycles(new.node.status_period_s, self.period_s);
+        self.live = LiveObjects::new(&od, self.axes.len());
+        self.od = od;
+        self.config = new;
+        Ok(count)
+    }
+
     /// The object dictionary, as SDO clients see it.
     pub fn dictionary(&self) -> &ObjectDictionary {
         &self.od

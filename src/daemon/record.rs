@@ -131,6 +131,16 @@ pub enum Event {
         t_s: f64,
         writes: u32,
     },
+    /// A new configuration (SIGHUP) took effect at a cycle boundary.
+    Reloaded {
+        t_s: f64,
+        axes_rebuilt: u32,
+    },
+    /// A new configuration was refused; the running one stays.
+    ReloadRefused {
+        t_s: f64,
+        reason: ReasonText,
+    },
     /// Staged SDO writes were refused as a whole (the configuration would be invalid).
     ParametersRefused {
         t_s: f64,
@@ -200,7 +210,9 @@ impl Event {
             | Event::Overrun { t_s, .. }
             | Event::Timing { t_s, .. }
             | Event::ParametersApplied { t_s, .. }
-            | Event::ParametersRefused { t_s, .. } => t_s,
+            | Event::ParametersRefused { t_s, .. }
+            | Event::Reloaded { t_s, .. }
+            | Event::ReloadRefused { t_s, .. } => t_s,
         }
     }
 
@@ -220,6 +232,8 @@ impl Event {
             Event::Timing { .. } => "timing",
             Event::ParametersApplied { .. } => "parameters_applied",
             Event::ParametersRefused { .. } => "parameters_refused",
+            Event::Reloaded { .. } => "reloaded",
+            Event::ReloadRefused { .. } => "reload_refused",
         }
     }
 }
@@ -299,6 +313,14 @@ impl std::fmt::Display for Event {
             Event::ParametersApplied { t_s, writes } => {
                 write!(f, "t={t_s:.4}s {writes} SDO write(s) applied at the cycle boundary")
             }
+            Event::Reloaded { t_s, axes_rebuilt } => write!(
+                f,
+                "t={t_s:.4}s configuration reloaded at the cycle boundary ({axes_rebuilt} axis/axes rebuilt)"
+            ),
+            Event::ReloadRefused { t_s, reason } => write!(
+                f,
+                "t={t_s:.4}s configuration reload refused, the running one stays: {reason}"
+            ),
             Event::ParametersRefused { t_s, reason } => {
                 write!(f, "t={t_s:.4}s SDO writes refused, nothing applied: {reason}")
             }

@@ -160,6 +160,11 @@ impl LimitSupervisor {
         }
     }
 
+    /// Carry latched faults over to a supervisor built anew (a configuration reload).
+    pub fn keep_latched(&mut self, latched: FaultFlags) {
+        self.latched = self.latched.union(latched);
+    }
+
     pub fn latched(&self) -> FaultFlags {
         self.latched
     }
