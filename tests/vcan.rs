@@ -36,6 +36,28 @@ impl Drop for Proc {
     }
 }
 
+/// `candump -L` on the test interface, written to `path`.
+fn candump_to(path: &Path) -> Proc {
+    Proc(
+        Command::new("candump")
+            .args(["-L", &iface()])
+            .stdout(std::fs::File::create(path).expect("capture file"))
+            .spawn()
+            .expect("candump (can-utils) is installed"),
+    )
+}
+
+/// `actuator sim` on the test interface with the solenoid plant and `extra` arguments.
+fn sim_node(extra: &[&str]) -> Proc {
+    Proc(
+        Command::new(env!("CARGO_BIN_EXE_actuator"))
+            .args(["sim", "--iface", &iface()])
+            .args(extra)
+            .spawn()
+            .expect("actuator sim starts"),
+    )
+}
+
 fn interrupt(p: &mut Proc) {
     // SAFETY: plain kill(2) on a child we own.
     unsafe { libc::kill(p.0.id() as libc::pid_t, libc::SIGINT) };
@@ -78,13 +100,7 @@ fn daemon_and_simulated_node_close_the_loop_on_vcan() {
     let capture_path = dir.path().join("capture.log");
     let recording = dir.path().join("run.mcap");
 
-    let mut candump = Proc(
-        Command::new("candump")
-            .args(["-L", &iface()])
-            .stdout(std::fs::File::create(&capture_path).expect("capture file"))
-            .spawn()
-            .expect("candump (can-utils) is installed"),
-    );
+    let mut candump = candump_to(&capture_path);
     std::thread::sleep(Duration::from_millis(300));
     let mut sim = Proc(
         Command::new(env!("CARGO_BIN_EXE_actuator"))
@@ -350,19 +366,8 @@ fn daemon_notifies_systemd_stops_safely_and_a_killed_recording_stays_readable() 
     let recording = dir.path().join("term.mcap");
     let capture_path = dir.path().join("capture.log");
 
-    let mut candump = Proc(
-        Command::new("candump")
-            .args(["-L", &iface()])
-            .stdout(std::fs::File::create(&capture_path).expect("capture file"))
-            .spawn()
-            .expect("candump (can-utils) is installed"),
-    );
-    let mut sim = Proc(
-        Command::new(env!("CARGO_BIN_EXE_actuator"))
-            .args(["sim", "--iface", &iface()])
-            .spawn()
-            .expect("actuator sim starts"),
-    );
+    let mut candump = candump_to(&capture_path);
+    let mut sim = sim_node(&[]);
     std::thread::sleep(Duration::from_millis(300));
     let mut daemon = Proc(
         Command::new(env!("CARGO_BIN_EXE_actuatord"))
@@ -509,19 +514,8 @@ fn sdo(args: &[&str]) -> (bool, String, String) {
 fn sdo_clients_read_and_write_objects_and_cantools_decodes_the_bus() {
     let dir = tempfile::tempdir().expect("tempdir");
     let capture_path = dir.path().join("capture.log");
-    let mut candump = Proc(
-        Command::new("candump")
-            .args(["-L", &iface()])
-            .stdout(std::fs::File::create(&capture_path).expect("capture file"))
-            .spawn()
-            .expect("candump (can-utils) is installed"),
-    );
-    let mut sim = Proc(
-        Command::new(env!("CARGO_BIN_EXE_actuator"))
-            .args(["sim", "--iface", &iface()])
-            .spawn()
-            .expect("actuator sim starts"),
-    );
+    let mut candump = candump_to(&capture_path);
+    let mut sim = sim_node(&[]);
     std::thread::sleep(Duration::from_millis(300));
     // The shipped config without its setpoint schedule, so the SDO setpoint stays.
     let text = std::fs::read_to_string(root("config/solenoid.toml")).expect("config");
@@ -728,13 +722,7 @@ fn the_robust_controller_runs_over_vcan_against_the_motor_gear_node() {
     let config = dir.path().join("robust.toml");
     std::fs::write(&config, text).expect("write config");
     let capture_path = dir.path().join("capture.log");
-    let mut candump = Proc(
-        Command::new("candump")
-            .args(["-L", &iface()])
-            .stdout(std::fs::File::create(&capture_path).expect("capture file"))
-            .spawn()
-            .expect("candump (can-utils) is installed"),
-    );
+    let mut candump = candump_to(&capture_path);
     let mut sim = Proc(
         Command::new(env!("CARGO_BIN_EXE_actuator"))
             .args([
@@ -797,12 +785,7 @@ fn sighup_reloads_parameters_and_an_invalid_file_keeps_the_running_configuration
     let config = dir.path().join("reload.toml");
     let text = std::fs::read_to_string(root("config/solenoid.toml")).expect("config");
     std::fs::write(&config, &text).expect("write config");
-    let mut sim = Proc(
-        Command::new(env!("CARGO_BIN_EXE_actuator"))
-            .args(["sim", "--iface", &iface()])
-            .spawn()
-            .expect("actuator sim starts"),
-    );
+    let mut sim = sim_node(&[]);
     std::thread::sleep(Duration::from_millis(300));
     let mut daemon = Proc(
         Command::new(env!("CARGO_BIN_EXE_actuatord"))
@@ -886,4 +869,53 @@ impl WaitTaken for Child {
         let status = self.wait().expect("child ends");
         (status, err)
     }
+}
+
+#[test]
+#[ignore = "needs vcan0, candump and cansend: run through scripts/vcan-run (scripts/test does)"]
+fn a_cangen_flood_does_not_break_the_cycle() {
+    let mut sim = sim_node(&[]);
+    std::thread::sleep(Duration::from_millis(300));
+    let start = std::time::Instant::now();
+    let mut daemon = Proc(
+        Command::new(env!("CARGO_BIN_EXE_actuatord"))
+            .arg("--config")
+            .arg(root("config/solenoid.toml"))
+            .args(["--iface", &iface(), "--duration-s", "8"])
+            .spawn()
+            .expect("actuatord starts"),
+    );
+    std::thread::sleep(Duration::from_millis(1000));
+    // Unrelated frames as fast as cangen can send them (no gap), a bounded number.
+    let flood_start = std::time::Instant::now();
+    let status = Command::new("cangen")
+        .args([&iface(), "-g", "0", "-I", "5FF", "-L", "8", "-n", "50000"])
+        .status()
+        .expect("cangen (can-utils) runs");
+    let flood_s = flood_start.elapsed().as_secs_f64();
+    assert!(status.success());
+    let read = |object: &str| -> u64 {
+        let (ok, out, err) = sdo(&["read", object]);
+        assert!(ok, "{object}: {err}");
+        out.parse().expect("a count")
+    };
+    let cycles = read("loop_statistics.cycles");
+    let elapsed = start.elapsed().as_secs_f64();
+    let overruns = read("loop_statistics.overruns");
+    let unknown = read("loop_statistics.frames_unknown");
+    eprintln!(
+        "vcan: cangen flood of 50000 frames in {flood_s:.2} s ({:.0} frames/s): {cycles} cycles in {elapsed:.2} s, {overruns} overruns, {unknown} unknown frames counted",
+        50000.0 / flood_s
+    );
+    // The statistics are published every status period (50 ms) and the daemon started a
+    // little after `start`: allow for both, then the loop must have kept its rate.
+    assert!(
+        cycles as f64 >= 0.85 * (elapsed - 0.5) / 0.0025,
+        "{cycles} cycles in {elapsed} s"
+    );
+    assert!(unknown > 1000, "the flood reached the daemon: {unknown}");
+    let status = daemon.0.wait().expect("actuatord ends");
+    assert!(status.success(), "{status}");
+    interrupt(&mut sim);
+    let _ = sim.0.wait();
 }
