@@ -919,3 +919,65 @@ fn a_cangen_flood_does_not_break_the_cycle() {
     interrupt(&mut sim);
     let _ = sim.0.wait();
 }
+
+#[test]
+#[ignore = "needs vcan0, candump and cansend: run through scripts/vcan-run (scripts/test does)"]
+fn one_daemon_serves_two_axes_from_one_cycle() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let text = std::fs::read_to_string(root("config/solenoid.toml")).expect("config");
+    // A second axis: the same block for node 17, with its own setpoint schedule.
+    let start = text.find("[[axis]]").expect("an axis");
+    let second = text[start..]
+        .replace("actuator_node_id = 16", "actuator_node_id = 17")
+        .replace("name = \"solenoid\"", "name = \"solenoid_b\"")
+        .replace("position_m = 0.010\n", "position_m = 0.008\n");
+    let config = dir.path().join("two_axes.toml");
+    std::fs::write(&config, format!("{text}\n{second}")).expect("write config");
+    let capture_path = dir.path().join("capture.log");
+    let mut candump = candump_to(&capture_path);
+    let mut sim_a = sim_node(&[]);
+    let mut sim_b = sim_node(&["--node-id", "17"]);
+    std::thread::sleep(Duration::from_millis(300));
+    let out = Command::new(env!("CARGO_BIN_EXE_actuatord"))
+        .arg("--config")
+        .arg(&config)
+        .args(["--iface", &iface(), "--duration-s", "2.5"])
+        .output()
+        .expect("actuatord runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for p in [&mut sim_a, &mut sim_b, &mut candump] {
+        interrupt(p);
+        let _ = p.0.wait();
+    }
+    let text = std::fs::read_to_string(&capture_path).expect("capture");
+    let frames: Vec<(f64, Frame)> = text
+        .lines()
+        .filter_map(|l| parse_candump_line(l).ok())
+        .map(|r| (r.time_s, r.frame))
+        .collect();
+    let t0 = frames
+        .iter()
+        .find(|(_, f)| f.id() == 0x080)
+        .map(|(t, _)| *t)
+        .expect("SYNC");
+    let syncs = frames.iter().filter(|(_, f)| f.id() == 0x080).count();
+    let mean = |id: u32| {
+        let v: Vec<f64> = frames
+            .iter()
+            .filter(|(t, f)| f.id() == id && f.len() == 8 && (1.8..2.0).contains(&(t - t0)))
+            .map(|(_, f)| SensorPdo::decode(f).expect("sensor").position)
+            .collect();
+        v.iter().sum::<f64>() / v.len().max(1) as f64
+    };
+    let (a, b) = (mean(0x190), mean(0x191));
+    let commands_a = frames.iter().filter(|(_, f)| f.id() == 0x210).count();
+    let commands_b = frames.iter().filter(|(_, f)| f.id() == 0x211).count();
+    eprintln!("vcan: two axes, one cycle: {syncs} SYNC, commands {commands_a}/{commands_b}, axis 16 at {a:.5} m (setpoint 0.010), axis 17 at {b:.5} m (setpoint 0.008)");
+    assert!(commands_a as f64 >= 0.98 * syncs as f64 && commands_b as f64 >= 0.98 * syncs as f64);
+    assert!((a - 0.010).abs() < 25e-6, "axis 16 at {a}");
+    assert!((b - 0.008).abs() < 25e-6, "axis 17 at {b}");
+}
