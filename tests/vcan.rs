@@ -526,7 +526,8 @@ fn sdo_clients_read_and_write_objects_and_cantools_decodes_the_bus() {
         Command::new(env!("CARGO_BIN_EXE_actuatord"))
             .arg("--config")
             .arg(&config)
-            .args(["--iface", &iface(), "--duration-s", "6"])
+            .args(["--iface", &iface(), "--duration-s", "6", "--record"])
+            .arg(dir.path().join("sdo.mcap"))
             .spawn()
             .expect("actuatord starts"),
     );
@@ -642,6 +643,28 @@ net.disconnect()
         decoded_frames += 1;
     }
     eprintln!("vcan: cantools decoded {decoded_frames} frames");
+    // The values cantools reads off the bus are the ones the daemon recorded.
+    let on_bus: std::collections::HashSet<i64> = text
+        .lines()
+        .filter_map(|l| l.split(":: sensor(position: ").nth(1))
+        .filter_map(|rest| rest.split(' ').next())
+        .filter_map(|v| v.parse::<f64>().ok())
+        .map(|p| (p * 1e7).round() as i64)
+        .collect();
+    let recorded =
+        actuatord::daemon::recorder::read_cycles(&dir.path().join("sdo.mcap")).expect("recording");
+    let fresh: Vec<i64> = recorded
+        .iter()
+        .filter(|c| c.sensor_fresh)
+        .map(|c| (c.position * 1e7).round() as i64)
+        .collect();
+    let missing = fresh.iter().filter(|p| !on_bus.contains(p)).count();
+    eprintln!(
+        "vcan: {} recorded positions, {missing} not among cantools' decoded sensor values",
+        fresh.len()
+    );
+    assert!(fresh.len() > 1000);
+    assert_eq!(missing, 0);
     assert!(decoded_frames > 1000);
     assert!(text.contains(":: sensor(position:"));
     assert!(text.contains(":: fault_state("));
@@ -980,4 +1003,82 @@ fn one_daemon_serves_two_axes_from_one_cycle() {
     assert!(commands_a as f64 >= 0.98 * syncs as f64 && commands_b as f64 >= 0.98 * syncs as f64);
     assert!((a - 0.010).abs() < 25e-6, "axis 16 at {a}");
     assert!((b - 0.008).abs() < 25e-6, "axis 17 at {b}");
+}
+
+#[test]
+#[ignore = "needs vcan0, vcan1, candump and cansend: run through scripts/vcan-run (scripts/test does)"]
+fn a_second_bus_gets_its_own_cycle_thread() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let text = std::fs::read_to_string(root("config/solenoid.toml")).expect("config");
+    let cut = text.find("[[axis.setpoints]]").expect("a schedule");
+    let first = dir.path().join("bus0.toml");
+    let second = dir.path().join("bus1.toml");
+    std::fs::write(&first, &text[..cut]).expect("write");
+    std::fs::write(
+        &second,
+        text[..cut]
+            .replace("iface = \"vcan0\"", "iface = \"vcan1\"")
+            .replace("initial_setpoint_m = 0.005", "initial_setpoint_m = 0.007"),
+    )
+    .expect("write");
+    let capture_path = dir.path().join("capture.log");
+    let mut candump = Proc(
+        Command::new("candump")
+            .args(["-L", "vcan0", "vcan1"])
+            .stdout(std::fs::File::create(&capture_path).expect("capture file"))
+            .spawn()
+            .expect("candump (can-utils) is installed"),
+    );
+    let mut sim0 = sim_node(&[]);
+    let mut sim1 = Proc(
+        Command::new(env!("CARGO_BIN_EXE_actuator"))
+            .args(["sim", "--iface", "vcan1"])
+            .spawn()
+            .expect("actuator sim starts"),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let recording = dir.path().join("run.mcap");
+    let out = Command::new(env!("CARGO_BIN_EXE_actuatord"))
+        .arg("--config")
+        .arg(&first)
+        .arg("--config")
+        .arg(&second)
+        .args(["--duration-s", "2", "--record"])
+        .arg(&recording)
+        .output()
+        .expect("actuatord runs");
+    let log = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{log}");
+    for p in [&mut sim0, &mut sim1, &mut candump] {
+        interrupt(p);
+        let _ = p.0.wait();
+    }
+    let records: Vec<_> = std::fs::read_to_string(&capture_path)
+        .expect("capture")
+        .lines()
+        .filter_map(|l| parse_candump_line(l).ok())
+        .collect();
+    for (iface, target) in [("vcan0", 0.005), ("vcan1", 0.007)] {
+        let syncs = records
+            .iter()
+            .filter(|r| r.iface == iface && r.frame.id() == 0x080)
+            .count();
+        let last: Vec<f64> = records
+            .iter()
+            .filter(|r| r.iface == iface && r.frame.id() == 0x190 && r.frame.len() == 8)
+            .map(|r| SensorPdo::decode(&r.frame).expect("sensor").position)
+            .collect();
+        let tail = &last[last.len().saturating_sub(100)..];
+        let mean = tail.iter().sum::<f64>() / tail.len().max(1) as f64;
+        eprintln!("vcan: {iface}: {syncs} SYNC in 2 s, position {mean:.5} m for {target}");
+        assert!(syncs > 700, "{iface}: {syncs} SYNC");
+        assert!((mean - target).abs() < 25e-6, "{iface}: {mean}");
+        assert!(log.contains(&format!("{iface}: bus load")), "{log}");
+    }
+    for iface in ["vcan0", "vcan1"] {
+        let file = dir.path().join(format!("run-{iface}.mcap"));
+        let cycles =
+            actuatord::daemon::recorder::read_cycles(&file).expect("one recording per bus");
+        assert!(cycles.len() > 700, "{iface}: {} records", cycles.len());
+    }
 }

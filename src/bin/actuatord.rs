@@ -1,10 +1,14 @@
 //! `actuatord`: the control daemon. Argument parsing, start-up and shutdown only.
 
+use actuatord::bus::BusError;
 use actuatord::bus::SocketCanBus;
+use actuatord::daemon::node::NodeCounters;
 use actuatord::daemon::notify::{watchdog_interval, Notifier};
-use actuatord::daemon::{run_cycle_reloadable, Config, ControllerNode, CycleSettings, Recorder};
+use actuatord::daemon::{
+    run_cycle_reloadable, Config, ControllerNode, CycleReport, CycleSettings, Recorder,
+};
 use clap::Parser;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
@@ -13,13 +17,15 @@ use std::sync::Arc;
 #[derive(Parser, Debug)]
 #[command(version, about)]
 struct Args {
-    /// Configuration file (TOML).
+    /// Configuration file (TOML). Repeat it for several CAN buses: each configuration is one bus
+    /// with its own cycle thread.
     #[arg(long, default_value = "/etc/actuatord/actuatord.toml")]
-    config: PathBuf,
-    /// CAN interface, overriding [bus] iface of the configuration.
+    config: Vec<PathBuf>,
+    /// CAN interface, overriding [bus] iface of the configuration (one configuration only).
     #[arg(long)]
     iface: Option<String>,
-    /// Record every cycle to this MCAP file.
+    /// Record every cycle to this MCAP file (with several buses: one file per bus, named
+    /// after the interface).
     #[arg(long)]
     record: Option<PathBuf>,
     /// Stop by itself after this many seconds (default: run until SIGTERM or SIGINT).
@@ -58,20 +64,52 @@ fn notify(notifier: &Option<Notifier>, message: &str) {
     }
 }
 
-fn run(args: Args) -> anyhow::Result<()> {
-    let mut config = Config::load(&args.config)?;
-    if let Some(iface) = args.iface.clone() {
-        config.bus.iface = iface;
+/// One bus: its configuration, cycle thread, recorder and reload channel.
+struct BusCycle {
+    config_path: PathBuf,
+    iface: String,
+    thread: std::thread::JoinHandle<(Result<CycleReport, BusError>, NodeCounters)>,
+    recorder: Recorder,
+    reload: std::sync::mpsc::SyncSender<Box<Config>>,
+    progress: Arc<AtomicU64>,
+}
+
+/// Load a configuration (with the interface override) and log its bus load.
+fn load_config(path: &Path, iface: Option<&str>) -> anyhow::Result<Config> {
+    let mut config = Config::load(path)?;
+    if let Some(iface) = iface {
+        config.bus.iface = iface.to_string();
     }
-    if let Some(d) = args.duration_s {
-        anyhow::ensure!(
-            d.is_finite() && d > 0.0,
-            "--duration-s must be > 0, got {d}"
-        );
+    Ok(config)
+}
+
+/// Where one bus records: the given file, or one file per interface when there are several.
+fn record_path(record: &Path, iface: &str, buses: usize) -> PathBuf {
+    if buses == 1 {
+        return record.to_path_buf();
     }
+    let stem = record
+        .file_stem()
+        .map_or("record".into(), |s| s.to_string_lossy().to_string());
+    let ext = record
+        .extension()
+        .map_or("mcap".into(), |s| s.to_string_lossy().to_string());
+    record.with_file_name(format!("{stem}-{iface}.{ext}"))
+}
+
+fn start_bus(
+    config_path: &Path,
+    config: Config,
+    args: &Args,
+    buses: usize,
+    stop: &Arc<AtomicBool>,
+    ended: &tokio::sync::mpsc::UnboundedSender<usize>,
+    index: usize,
+) -> anyhow::Result<BusCycle> {
     let load = actuatord::daemon::bus_load::bus_load(&config);
     tracing::info!(
-        "bus load {:.1} % of {} kbit/s ({:.0} frames/s, {:.0} kbit/s worst case with stuffing; limit {:.0} %)",
+        "{}: bus load {:.1} % of {} kbit/s ({:.0} frames/s, {:.0} kbit/s worst case with stuffing; limit {:.0} %)",
+        config.bus.iface,
         load.load * 100.0,
         config.bus.bitrate_bps / 1000,
         load.frames_per_s,
@@ -80,9 +118,13 @@ fn run(args: Args) -> anyhow::Result<()> {
     );
     let mut bus = SocketCanBus::open(&config.bus.iface)?;
     let mut node = ControllerNode::new(&config)?;
-    let (sink, recorder) = Recorder::spawn(args.record.as_deref(), config.record.queue_depth)?;
+    let record = args
+        .record
+        .as_deref()
+        .map(|r| record_path(r, &config.bus.iface, buses));
+    let (sink, recorder) = Recorder::spawn(record.as_deref(), config.record.queue_depth)?;
     tracing::info!(
-        config = %args.config.display(),
+        config = %config_path.display(),
         iface = %config.bus.iface,
         period_ms = config.cycle.period_s * 1e3,
         axes = config.axis.len(),
@@ -94,10 +136,67 @@ fn run(args: Args) -> anyhow::Result<()> {
         realtime_priority: config.cycle.realtime_priority,
         lock_memory: config.cycle.lock_memory,
         duration_s: args.duration_s,
-        record_frames: args.record.is_some() && config.record.can_frames,
+        record_frames: record.is_some() && config.record.can_frames,
     };
-    // Signals are handled off the real-time thread, on a small runtime of their own; they are
-    // registered before the cycle starts, so a SIGTERM right after start-up is never lost.
+    // SIGHUP hands a new, validated configuration to the cycle, which applies it at a boundary.
+    let (reload, reload_rx) = std::sync::mpsc::sync_channel::<Box<Config>>(1);
+    let progress = Arc::new(AtomicU64::new(0));
+    let cycle_stop = stop.clone();
+    let cycle_progress = progress.clone();
+    let ended = ended.clone();
+    let thread = std::thread::Builder::new()
+        .name(format!("cycle-{}", config.bus.iface))
+        .spawn(move || {
+            let result = run_cycle_reloadable(
+                &mut bus,
+                &mut node,
+                settings,
+                &cycle_stop,
+                &cycle_progress,
+                &sink,
+                Some(reload_rx),
+            );
+            let _ = ended.send(index);
+            (result, node.counters())
+        })?;
+    Ok(BusCycle {
+        config_path: config_path.to_path_buf(),
+        iface: config.bus.iface.clone(),
+        thread,
+        recorder,
+        reload,
+        progress,
+    })
+}
+
+fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(d) = args.duration_s {
+        anyhow::ensure!(
+            d.is_finite() && d > 0.0,
+            "--duration-s must be > 0, got {d}"
+        );
+    }
+    anyhow::ensure!(
+        args.iface.is_none() || args.config.len() == 1,
+        "--iface overrides the interface of one configuration; with several, set [bus] iface in each"
+    );
+    let configs = args
+        .config
+        .iter()
+        .map(|p| load_config(p, args.iface.as_deref()))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    for (i, c) in configs.iter().enumerate() {
+        if let Some(j) = configs[..i].iter().position(|o| o.bus.iface == c.bus.iface) {
+            anyhow::bail!(
+                "{} and {} both use the CAN interface {}: one configuration per bus",
+                args.config[j].display(),
+                args.config[i].display(),
+                c.bus.iface
+            );
+        }
+    }
+    // Signals are handled off the real-time threads, on a small runtime of their own; they are
+    // registered before the cycles start, so a SIGTERM right after start-up is never lost.
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()?;
@@ -109,48 +208,43 @@ fn run(args: Args) -> anyhow::Result<()> {
             signal(SignalKind::hangup())?,
         ))
     })?;
-    // SIGHUP hands a new, validated configuration to the cycle, which applies it at a boundary.
-    let (reload_tx, reload_rx) = std::sync::mpsc::sync_channel::<Box<Config>>(1);
     let notifier = Notifier::from_env().map_err(|e| anyhow::anyhow!("NOTIFY_SOCKET: {e}"))?;
     let stop = Arc::new(AtomicBool::new(false));
-    let progress = Arc::new(AtomicU64::new(0));
-    let (done_tx, mut done_rx) = tokio::sync::oneshot::channel();
-    let cycle_stop = stop.clone();
-    let cycle_progress = progress.clone();
-    let cycle_sink = sink.clone();
-    let cycle = std::thread::Builder::new()
-        .name("actuatord-cycle".into())
-        .spawn(move || {
-            let result = run_cycle_reloadable(
-                &mut bus,
-                &mut node,
-                settings,
-                &cycle_stop,
-                &cycle_progress,
-                &cycle_sink,
-                Some(reload_rx),
-            );
-            let _ = done_tx.send(());
-            (result, node.counters())
-        })?;
-    drop(sink);
+    let (ended_tx, mut ended_rx) = tokio::sync::mpsc::unbounded_channel();
+    let buses = configs.len();
+    let mut cycles = Vec::with_capacity(buses);
+    for (index, (path, config)) in args.config.iter().zip(configs).enumerate() {
+        match start_bus(path, config, &args, buses, &stop, &ended_tx, index) {
+            Ok(c) => cycles.push(c),
+            Err(e) => {
+                // The buses already running get their safe state before the daemon gives up.
+                stop.store(true, Ordering::Relaxed);
+                for c in cycles {
+                    let _ = c.thread.join();
+                    let _ = c.recorder.finish();
+                }
+                return Err(e);
+            }
+        }
+    }
+    drop(ended_tx);
 
     runtime.block_on(async {
-        // Ready once the first cycle has run: the bus works and the loop is live.
+        // Ready once every cycle has run once: the buses work and the loops are live.
         let mut poll = tokio::time::interval(std::time::Duration::from_millis(5));
-        while progress.load(Ordering::Relaxed) == 0 {
+        while cycles.iter().any(|c| c.progress.load(Ordering::Relaxed) == 0) {
             tokio::select! {
                 _ = poll.tick() => {}
-                _ = &mut done_rx => return anyhow::Ok(()),
+                _ = ended_rx.recv() => return anyhow::Ok(()),
             }
         }
         notify(&notifier, "READY=1\nSTATUS=cycle running");
-        // The watchdog is fed only while the cycle makes progress, so a stalled cycle gets the
-        // service restarted by systemd (WatchdogSec).
+        // The watchdog is fed only while every cycle makes progress, so a stalled cycle gets
+        // the service restarted by systemd (WatchdogSec).
         let watchdog = watchdog_interval();
         let mut feed =
             tokio::time::interval(watchdog.map_or(std::time::Duration::from_secs(3600), |w| w / 2));
-        let mut last_seen = 0;
+        let mut last_seen = vec![0; cycles.len()];
         loop {
             tokio::select! {
                 _ = term.recv() => {
@@ -161,29 +255,26 @@ fn run(args: Args) -> anyhow::Result<()> {
                     tracing::info!("SIGINT: commanding the safe state and stopping");
                     break;
                 }
-                _ = &mut done_rx => break,
+                _ = ended_rx.recv() => break,
                 _ = hup.recv() => {
-                    match Config::load(&args.config) {
-                        Ok(mut new) => {
-                            if let Some(iface) = &args.iface {
-                                new.bus.iface = iface.clone();
-                            }
-                            match reload_tx.try_send(Box::new(new)) {
-                                Ok(()) => tracing::info!("SIGHUP: {} read, taking effect at the next cycle", args.config.display()),
-                                Err(_) => tracing::warn!("SIGHUP: a reload is still pending; this one is ignored"),
-                            }
+                    for c in &cycles {
+                        match load_config(&c.config_path, args.iface.as_deref()) {
+                            Ok(new) => match c.reload.try_send(Box::new(new)) {
+                                Ok(()) => tracing::info!("SIGHUP: {} read, taking effect at the next cycle", c.config_path.display()),
+                                Err(_) => tracing::warn!("SIGHUP: a reload of {} is still pending; this one is ignored", c.config_path.display()),
+                            },
+                            Err(e) => tracing::error!("SIGHUP: {e:#}; keeping the running configuration"),
                         }
-                        Err(e) => tracing::error!("SIGHUP: {e}; keeping the running configuration"),
                     }
                 }
                 _ = feed.tick(), if watchdog.is_some() => {
-                    let now = progress.load(Ordering::Relaxed);
-                    if now != last_seen {
+                    let now: Vec<u64> = cycles.iter().map(|c| c.progress.load(Ordering::Relaxed)).collect();
+                    if now.iter().zip(&last_seen).all(|(n, l)| n != l) {
                         notify(&notifier, "WATCHDOG=1");
-                        last_seen = now;
                     } else {
-                        tracing::error!("the cycle made no progress: not feeding the watchdog");
+                        tracing::error!("a cycle made no progress: not feeding the watchdog");
                     }
+                    last_seen = now;
                 }
             }
         }
@@ -191,23 +282,32 @@ fn run(args: Args) -> anyhow::Result<()> {
         anyhow::Ok(())
     })?;
     stop.store(true, Ordering::Relaxed);
-    let (result, counters) = cycle
-        .join()
-        .map_err(|_| anyhow::anyhow!("the cycle thread panicked"))?;
-    let report = recorder.finish()?;
-    let cycle = result?;
-    tracing::info!(
-        cycles = cycle.cycles,
-        overruns = cycle.overruns,
-        sensor_missed = counters.sensor_missed,
-        frames_malformed = counters.frames_malformed,
-        frames_unknown = counters.frames_unknown,
-        faults_raised = counters.faults_raised,
-        records_dropped = report.dropped,
-        "stopped"
-    );
-    if let Some(path) = report.path {
-        tracing::info!("recording written: {}", path.display());
+    let mut first_error = None;
+    for c in cycles {
+        let (result, counters) = c
+            .thread
+            .join()
+            .map_err(|_| anyhow::anyhow!("the cycle thread of {} panicked", c.iface))?;
+        let report = c.recorder.finish()?;
+        match result {
+            Ok(cycle) => tracing::info!(
+                iface = %c.iface,
+                cycles = cycle.cycles,
+                overruns = cycle.overruns,
+                sensor_missed = counters.sensor_missed,
+                frames_malformed = counters.frames_malformed,
+                frames_unknown = counters.frames_unknown,
+                faults_raised = counters.faults_raised,
+                records_dropped = report.dropped,
+                "stopped"
+            ),
+            Err(e) => {
+                first_error.get_or_insert(anyhow::anyhow!(e));
+            }
+        }
+        if let Some(path) = report.path {
+            tracing::info!("recording written: {}", path.display());
+        }
     }
-    Ok(())
+    first_error.map_or(Ok(()), Err)
 }
