@@ -1013,11 +1013,13 @@ fn a_second_bus_gets_its_own_cycle_thread() {
     let cut = text.find("[[axis.setpoints]]").expect("a schedule");
     let first = dir.path().join("bus0.toml");
     let second = dir.path().join("bus1.toml");
-    std::fs::write(&first, &text[..cut]).expect("write");
+    // Two SCHED_FIFO cycles share the user-mode kernel's one CPU with both simulated nodes:
+    // give the nodes' answers more slack than the shipped 20 ms, this test is about threads.
+    let text = text[..cut].replace("sensor_timeout_s = 0.02", "sensor_timeout_s = 0.5");
+    std::fs::write(&first, &text).expect("write");
     std::fs::write(
         &second,
-        text[..cut]
-            .replace("iface = \"vcan0\"", "iface = \"vcan1\"")
+        text.replace("iface = \"vcan0\"", "iface = \"vcan1\"")
             .replace("initial_setpoint_m = 0.005", "initial_setpoint_m = 0.007"),
     )
     .expect("write");
@@ -1072,7 +1074,8 @@ fn a_second_bus_gets_its_own_cycle_thread() {
         let mean = tail.iter().sum::<f64>() / tail.len().max(1) as f64;
         eprintln!("vcan: {iface}: {syncs} SYNC in 2 s, position {mean:.5} m for {target}");
         assert!(syncs > 700, "{iface}: {syncs} SYNC");
-        assert!((mean - target).abs() < 25e-6, "{iface}: {mean}");
+        let faults: Vec<&str> = log.lines().filter(|l| l.contains("raised")).collect();
+        assert!((mean - target).abs() < 25e-6, "{iface}: {mean}; {faults:?}");
         assert!(log.contains(&format!("{iface}: bus load")), "{log}");
     }
     for iface in ["vcan0", "vcan1"] {
