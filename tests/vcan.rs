@@ -58,6 +58,25 @@ fn sim_node(extra: &[&str]) -> Proc {
     )
 }
 
+/// The frames of a `candump -L` capture, with their times.
+fn read_capture(path: &Path) -> Vec<(f64, Frame)> {
+    std::fs::read_to_string(path)
+        .expect("capture")
+        .lines()
+        .filter_map(|l| parse_candump_line(l).ok())
+        .map(|r| (r.time_s, r.frame))
+        .collect()
+}
+
+/// Time of the first SYNC: the cycle's clock starts there.
+fn first_sync(frames: &[(f64, Frame)]) -> f64 {
+    frames
+        .iter()
+        .find(|(_, f)| f.id() == 0x080)
+        .map(|(t, _)| *t)
+        .expect("SYNC captured")
+}
+
 fn interrupt(p: &mut Proc) {
     // SAFETY: plain kill(2) on a child we own.
     unsafe { libc::kill(p.0.id() as libc::pid_t, libc::SIGINT) };
@@ -144,13 +163,8 @@ fn daemon_and_simulated_node_close_the_loop_on_vcan() {
     interrupt(&mut candump);
     let _ = candump.0.wait();
 
-    let text = std::fs::read_to_string(&capture_path).expect("capture");
     let cap = Capture {
-        frames: text
-            .lines()
-            .filter_map(|l| parse_candump_line(l).ok())
-            .map(|r| (r.time_s, r.frame))
-            .collect(),
+        frames: read_capture(&capture_path),
     };
     let syncs = cap.syncs();
     assert!(
@@ -431,11 +445,9 @@ fn daemon_notifies_systemd_stops_safely_and_a_killed_recording_stays_readable() 
     std::thread::sleep(Duration::from_millis(100));
     interrupt(&mut candump);
     let _ = candump.0.wait();
-    let text = std::fs::read_to_string(&capture_path).expect("capture");
-    let frames: Vec<Frame> = text
-        .lines()
-        .filter_map(|l| parse_candump_line(l).ok())
-        .map(|r| r.frame)
+    let frames: Vec<Frame> = read_capture(&capture_path)
+        .into_iter()
+        .map(|(_, f)| f)
         .collect();
     let last_command = frames
         .iter()
@@ -775,17 +787,8 @@ fn the_robust_controller_runs_over_vcan_against_the_motor_gear_node() {
     std::thread::sleep(Duration::from_millis(100));
     interrupt(&mut candump);
     let _ = candump.0.wait();
-    let text = std::fs::read_to_string(&capture_path).expect("capture");
-    let frames: Vec<(f64, Frame)> = text
-        .lines()
-        .filter_map(|l| parse_candump_line(l).ok())
-        .map(|r| (r.time_s, r.frame))
-        .collect();
-    let t0 = frames
-        .iter()
-        .find(|(_, f)| f.id() == 0x080)
-        .map(|(t, _)| *t)
-        .expect("SYNC");
+    let frames = read_capture(&capture_path);
+    let t0 = first_sync(&frames);
     // Setpoint 0.2 rad from 1 s (2 rad/s ramp): the mean angle over [1.9, 2.3) s.
     let angles: Vec<f64> = frames
         .iter()
@@ -976,17 +979,8 @@ fn one_daemon_serves_two_axes_from_one_cycle() {
         interrupt(p);
         let _ = p.0.wait();
     }
-    let text = std::fs::read_to_string(&capture_path).expect("capture");
-    let frames: Vec<(f64, Frame)> = text
-        .lines()
-        .filter_map(|l| parse_candump_line(l).ok())
-        .map(|r| (r.time_s, r.frame))
-        .collect();
-    let t0 = frames
-        .iter()
-        .find(|(_, f)| f.id() == 0x080)
-        .map(|(t, _)| *t)
-        .expect("SYNC");
+    let frames = read_capture(&capture_path);
+    let t0 = first_sync(&frames);
     let syncs = frames.iter().filter(|(_, f)| f.id() == 0x080).count();
     let mean = |id: u32| {
         let v: Vec<f64> = frames
