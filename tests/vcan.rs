@@ -1079,3 +1079,92 @@ fn a_second_bus_gets_its_own_cycle_thread() {
         assert!(cycles.len() > 700, "{iface}: {} records", cycles.len());
     }
 }
+
+#[test]
+#[ignore = "needs vcan0, candump and cansend: run through scripts/vcan-run (scripts/test does)"]
+fn learned_state_survives_a_restart_and_a_bad_state_file_is_set_aside() {
+    use actuatord::canopen::messages::TUNED_PARAMETERS;
+    use actuatord::canopen::TunedParametersPdo;
+    use actuatord::daemon::state;
+
+    let dir = tempfile::tempdir().expect("tempdir");
+    let config = dir.path().join("kept.toml");
+    let text = std::fs::read_to_string(root("config/solenoid.toml")).expect("config");
+    std::fs::write(
+        &config,
+        format!("{text}\n[state]\nfile = \"learned.toml\"\nsave_interval_s = 0.5\n"),
+    )
+    .expect("write config");
+    let file = dir.path().join("learned.toml");
+    let run = |seconds: &str, capture: Option<&Path>| {
+        let dump = capture.map(candump_to);
+        std::thread::sleep(Duration::from_millis(200));
+        let out = Command::new(env!("CARGO_BIN_EXE_actuatord"))
+            .arg("--config")
+            .arg(&config)
+            .args(["--iface", &iface(), "--duration-s", seconds])
+            .output()
+            .expect("actuatord runs");
+        std::thread::sleep(Duration::from_millis(200));
+        drop(dump);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    let mut sim = sim_node(&[]);
+    std::thread::sleep(Duration::from_millis(300));
+
+    // A first run learns and leaves the state file behind, whole.
+    let log = run("3", None);
+    assert!(log.contains("no state file yet"), "{log}");
+    let kept = state::load(&file).expect("readable").expect("written");
+    let axis = &kept.axis[0];
+    assert_eq!(
+        (axis.name.as_str(), axis.actuator_node_id),
+        ("solenoid", 16)
+    );
+    let pos = axis.friction_compensation_pos.expect("friction kept");
+    assert!((0.0..=0.4).contains(&pos), "{pos}");
+    assert!(!dir.path().join("learned.toml.tmp").exists());
+
+    // The next start begins from the stored values: the first tuned_parameters frame has them.
+    let mut planted = kept.clone();
+    planted.axis[0].friction_compensation_pos = Some(0.321);
+    planted.axis[0].friction_compensation_neg = Some(0.123);
+    state::write_atomic(&file, &planted.to_toml().expect("toml")).expect("write");
+    let capture = dir.path().join("restart.log");
+    let log = run("1.5", Some(&capture));
+    assert!(log.contains("restored what it learned"), "{log}");
+    let frames = read_capture(&capture);
+    let first = frames
+        .iter()
+        .filter(|(_, f)| f.id() == TUNED_PARAMETERS.cob_id(1))
+        .filter_map(|(_, f)| TunedParametersPdo::decode(f).ok())
+        .find(|t| t.axis_node_id == 16)
+        .expect("tuned_parameters sent");
+    assert!(
+        (first.friction_compensation_pos_v - 0.321).abs() < 0.01
+            && (first.friction_compensation_neg_v - 0.123).abs() < 0.01,
+        "{first:?}"
+    );
+
+    // A file the daemon cannot read is set aside, not lost, and the axes learn again.
+    std::fs::write(&file, "version = 99\n").expect("corrupt");
+    let log = run("1", None);
+    assert!(
+        log.contains("state file not used") && log.contains("version"),
+        "{log}"
+    );
+    let aside =
+        std::fs::read_to_string(dir.path().join("learned.toml.rejected")).expect("set aside");
+    assert_eq!(aside, "version = 99\n");
+    assert!(
+        state::load(&file).expect("readable").is_some(),
+        "a fresh file"
+    );
+    interrupt(&mut sim);
+    let _ = sim.0.wait();
+}

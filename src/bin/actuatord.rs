@@ -4,8 +4,9 @@ use actuatord::bus::BusError;
 use actuatord::bus::SocketCanBus;
 use actuatord::daemon::node::NodeCounters;
 use actuatord::daemon::notify::{watchdog_interval, Notifier};
+use actuatord::daemon::state::{self, StateWriter};
 use actuatord::daemon::{
-    run_cycle_reloadable, Config, ControllerNode, CycleReport, CycleSettings, Recorder,
+    run_cycle_with, Config, ControllerNode, CycleReport, CycleServices, CycleSettings, Recorder,
 };
 use clap::Parser;
 use std::path::{Path, PathBuf};
@@ -72,6 +73,7 @@ struct BusCycle {
     recorder: Recorder,
     reload: std::sync::mpsc::SyncSender<Box<Config>>,
     progress: Arc<AtomicU64>,
+    state: Option<StateWriter>,
 }
 
 /// Load a configuration (with the interface override) and log its bus load.
@@ -118,6 +120,15 @@ fn start_bus(
     );
     let mut bus = SocketCanBus::open(&config.bus.iface)?;
     let mut node = ControllerNode::new(&config)?;
+    let (state_sink, state_writer) = match &config.state.file {
+        Some(file) => {
+            restore_state(&mut node, file);
+            let every = (config.state.save_interval_s / config.cycle.period_s).round() as u64;
+            let (sink, writer) = StateWriter::spawn(file, &node, every)?;
+            (Some(sink), Some(writer))
+        }
+        None => (None, None),
+    };
     let record = args
         .record
         .as_deref()
@@ -147,14 +158,17 @@ fn start_bus(
     let thread = std::thread::Builder::new()
         .name(format!("cycle-{}", config.bus.iface))
         .spawn(move || {
-            let result = run_cycle_reloadable(
+            let result = run_cycle_with(
                 &mut bus,
                 &mut node,
                 settings,
                 &cycle_stop,
                 &cycle_progress,
                 &sink,
-                Some(reload_rx),
+                CycleServices {
+                    reload: Some(reload_rx),
+                    state: state_sink,
+                },
             );
             let _ = ended.send(index);
             (result, node.counters())
@@ -166,7 +180,36 @@ fn start_bus(
         recorder,
         reload,
         progress,
+        state: state_writer,
     })
+}
+
+/// Give the axes what they learned before this start. A state file that cannot be read is set
+/// aside (`<file>.rejected`) and the axes learn again: a machine should not refuse to start
+/// over what it can learn anew.
+fn restore_state(node: &mut ControllerNode, file: &Path) {
+    match state::load(file) {
+        Ok(Some(s)) => {
+            for line in state::restore(node, &s, file) {
+                tracing::info!("{line}");
+            }
+        }
+        Ok(None) => tracing::info!(
+            "{}: no state file yet; the axes learn from scratch",
+            file.display()
+        ),
+        Err(e) => {
+            tracing::error!("state file not used: {e}");
+            match state::set_aside(file) {
+                Ok(aside) => tracing::warn!(
+                    "{} moved to {}; the axes learn again",
+                    file.display(),
+                    aside.display()
+                ),
+                Err(e) => tracing::error!("{e}"),
+            }
+        }
+    }
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
@@ -192,6 +235,19 @@ fn run(args: Args) -> anyhow::Result<()> {
                 args.config[j].display(),
                 args.config[i].display(),
                 c.bus.iface
+            );
+        }
+    }
+    for (i, c) in configs.iter().enumerate() {
+        let same = configs[..i]
+            .iter()
+            .position(|o| o.state.file.is_some() && o.state.file == c.state.file);
+        if let Some(j) = same {
+            anyhow::bail!(
+                "{} and {} both keep their state in {}: one state file per configuration",
+                args.config[j].display(),
+                args.config[i].display(),
+                c.state.file.as_deref().unwrap_or(Path::new("")).display()
             );
         }
     }
@@ -289,6 +345,16 @@ fn run(args: Args) -> anyhow::Result<()> {
             .join()
             .map_err(|_| anyhow::anyhow!("the cycle thread of {} panicked", c.iface))?;
         let report = c.recorder.finish()?;
+        if let Some(writer) = c.state {
+            let w = writer.finish();
+            tracing::info!(
+                iface = %c.iface,
+                writes = w.writes,
+                unchanged = w.unchanged,
+                errors = w.errors,
+                "state file"
+            );
+        }
         match result {
             Ok(cycle) => tracing::info!(
                 iface = %c.iface,

@@ -184,7 +184,15 @@ impl PneumaticAdaptive {
     }
 
     /// One cycle: set-point `w` (m), position `Y` (m), measured supply pressure `P_L` (Pa).
+    /// The same as [`PneumaticAdaptive::estimate`] followed by [`PneumaticAdaptive::control`].
     pub fn step(&mut self, setpoint: f64, position: f64, supply_pa: f64) -> PneumaticStep {
+        let eigenvalue = self.estimate(position);
+        self.control(setpoint, position, supply_pa, eigenvalue)
+    }
+
+    /// The estimation half of a cycle: this cycle's position into the drive-gain estimators
+    /// (when adapting). Returns the eigenvalue `z` of the update, 1 when none was made.
+    pub fn estimate(&mut self, position: f64) -> f64 {
         let mut eigenvalue = 1.0;
         if position.is_finite() {
             if self.adapt {
@@ -195,6 +203,18 @@ impl PneumaticAdaptive {
             }
             self.y_prev = Some(position);
         }
+        eigenvalue
+    }
+
+    /// The control half of a cycle, after [`PneumaticAdaptive::estimate`]: gains from the
+    /// schedule or the valid estimates, redesign, and the duty.
+    pub fn control(
+        &mut self,
+        setpoint: f64,
+        position: f64,
+        supply_pa: f64,
+        eigenvalue: f64,
+    ) -> PneumaticStep {
         let scheduled = self.schedule.step(supply_pa);
         let (mut k, mut source) = ([scheduled[0], scheduled[1]], [GainSource::Scheduled; 2]);
         let mut estimate = [0.0; 2];

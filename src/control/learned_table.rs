@@ -170,6 +170,32 @@ impl LearnedTable {
         (cell.count >= self.config.min_count.max(1)).then(|| &cell.params[..self.n])
     }
 
+    /// The cell `op` falls into (an index into the grid), None for a non-finite point. Lets
+    /// the caller notice that the operating point moved to another cell.
+    pub fn cell_of(&self, op: &OperatingPoint) -> Option<usize> {
+        self.index(op)
+    }
+
+    /// Cells holding at least one value.
+    pub fn populated_cells(&self) -> usize {
+        self.cells.iter().filter(|c| c.count > 0).count()
+    }
+
+    /// The grid and names this table was built with.
+    pub fn config(&self) -> &LearnedTableConfig {
+        &self.config
+    }
+
+    /// Copy the cells of `other`, a table of the same grid, without allocating (a snapshot
+    /// for the writer thread). Returns false, changing nothing, when the grids differ.
+    pub fn copy_cells_from(&mut self, other: &LearnedTable) -> bool {
+        if self.cells.len() != other.cells.len() || self.n != other.n {
+            return false;
+        }
+        self.cells.copy_from_slice(&other.cells);
+        true
+    }
+
     /// Values folded into the cell of `op`.
     pub fn count(&self, op: &OperatingPoint) -> u32 {
         self.index(op).map_or(0, |i| self.cells[i].count)

@@ -7,14 +7,15 @@
 //! [`Axis::new`]; the stages allocate nothing.
 
 use super::config::{cycles, AxisConfig, CommandKind, ScheduleVariable, SetpointStep};
+use super::learned::{AxisLearned, OperatingPointMemory};
 use crate::canopen::{
     Emcy, FaultDiagnosisPdo, FaultStatePdo, NmtState, SensorPdo, TunedGainsPdo, TunedParametersPdo,
 };
 use crate::control::robust::StateSpaceController;
 use crate::control::{
     AdaptiveFriction, ControllerError, DiscreteController, Dither, FrictionFeedForward,
-    GainSchedule, GainSource, LinearController, NonlinearCorrection, ParamError, PneumaticAdaptive,
-    PneumaticStep,
+    GainSchedule, GainSource, LearnedTable, LinearController, NonlinearCorrection, OperatingPoint,
+    ParamError, PneumaticAdaptive, PneumaticStep,
 };
 use crate::supervise::{
     diagnose, symptoms, Band, DiagnosedFault, DisturbanceObserver, EstimatorHealth, FaultMachine,
@@ -269,11 +270,14 @@ pub struct Axis {
     controller: LinearController,
     friction: Option<FrictionFeedForward>,
     adaptive_friction: Option<AdaptiveFriction>,
+    operating_points: Option<OperatingPointMemory>,
     dither: Option<Dither>,
     correction: Option<NonlinearCorrection>,
     gain_schedule: Option<(ScheduleVariable, GainSchedule)>,
     pneumatic: Option<PneumaticAdaptive>,
     pneumatic_step: PneumaticStep,
+    /// `z` of this cycle's drive-gain estimation update (estimation stage), 1 for none.
+    pneumatic_eigenvalue: f64,
     observer: Option<DisturbanceObserver>,
     observer_out: ObserverOutput,
     estimation: Option<Estimation>,
@@ -371,6 +375,11 @@ impl Axis {
             .map(AdaptiveFriction::new)
             .transpose()
             .map_err(unvalidated)?;
+        let operating_points = cfg
+            .learned_table_config(period_s)
+            .map(|(c, every)| LearnedTable::new(c).map(|t| OperatingPointMemory::new(t, every)))
+            .transpose()
+            .map_err(unvalidated)?;
         let dither = cfg
             .dither_config(period_s)
             .map(Dither::new)
@@ -432,11 +441,13 @@ impl Axis {
             controller,
             friction,
             adaptive_friction,
+            operating_points,
             dither,
             correction,
             gain_schedule,
             pneumatic,
             pneumatic_step: PneumaticStep::default(),
+            pneumatic_eigenvalue: 1.0,
             observer,
             observer_out: ObserverOutput {
                 x4_pos: f64::NAN,
@@ -530,10 +541,62 @@ impl Axis {
         self.node_state = old.node_state;
         self.node_was_operational = old.node_was_operational;
         self.supervisor.keep_latched(old.supervisor.latched());
+        // What the axis learned is kept: a new parameter is no reason to forget the friction.
+        self.restore_learned(&old.learned());
+        if let (Some(new), Some(old)) = (self.operating_points.as_mut(), &old.operating_points) {
+            new.restore(old.table());
+        }
         if old.supervisor.latched().is_empty() {
             self.last_command = old.last_command;
             self.controller.preset(old.last_command);
         }
+    }
+
+    /// What this axis has learned so far (the fixed-size part; see [`Axis::learned_table`]).
+    pub fn learned(&self) -> AxisLearned {
+        AxisLearned {
+            friction_compensation: self
+                .adaptive_friction
+                .as_ref()
+                .map(AdaptiveFriction::compensation_values),
+            observer_bands: self.observer.as_ref().and_then(DisturbanceObserver::bands),
+            nominal: self
+                .estimation
+                .as_ref()
+                .and_then(|e| e.nominal)
+                .map(|n| n.values),
+        }
+    }
+
+    /// Start from values learned before (a state file, or the axis this one replaces). Values
+    /// this axis has no algorithm for are ignored; a nominal set in the configuration wins.
+    pub fn restore_learned(&mut self, learned: &AxisLearned) {
+        if let (Some(a), Some((pos, neg))) = (
+            self.adaptive_friction.as_mut(),
+            learned.friction_compensation,
+        ) {
+            a.set_compensation_values(pos, neg);
+        }
+        if let (Some(o), Some(bands)) = (self.observer.as_mut(), learned.observer_bands) {
+            o.restore_bands(bands);
+        }
+        if let (Some(e), Some(values)) = (self.estimation.as_mut(), learned.nominal) {
+            if e.nominal.is_none() && values.iter().all(|v| v.is_finite()) {
+                e.nominal = Some(PhysicalParameters { values });
+            }
+        }
+    }
+
+    /// The learned table of tuned parameters by operating point, when configured.
+    pub fn learned_table(&self) -> Option<&LearnedTable> {
+        self.operating_points.as_ref().map(|m| m.table())
+    }
+
+    /// Take a stored learned table; false when this axis has none or another grid.
+    pub fn restore_learned_table(&mut self, table: &LearnedTable) -> bool {
+        self.operating_points
+            .as_mut()
+            .is_some_and(|m| m.restore(table))
     }
 
     /// Clear latched faults; the controller restarts bumplessly from the safe command.
@@ -600,14 +663,20 @@ impl Axis {
     }
 
     /// Stage "estimation": this cycle's position with the command applied during the period
-    /// that led to it, into the parameter estimation windows. (The drive-gain estimation of a
-    /// duty axis is part of its controller's step and runs in the control stage.)
+    /// that led to it, into the parameter estimation windows and, on a duty axis, into the
+    /// drive-gain estimators (not while the axis rests in its safe state: nothing to learn).
     pub fn estimate(&mut self) {
         if !self.fresh {
             return;
         }
         if let Some(e) = self.estimation.as_mut() {
             e.step(self.sensor.position, self.last_command);
+        }
+        self.pneumatic_eigenvalue = 1.0;
+        if let Some(p) = self.pneumatic.as_mut() {
+            if !self.model.machine.fail_safe {
+                self.pneumatic_eigenvalue = p.estimate(self.sensor.position);
+            }
         }
     }
 
@@ -694,7 +763,12 @@ impl Axis {
         } else if self.fresh {
             if let Some(p) = self.pneumatic.as_mut() {
                 // Scheduled (and, when configured, adapted) direction P gains on the supply.
-                self.pneumatic_step = p.step(self.reference, y, self.supply_pressure_pa);
+                self.pneumatic_step = p.control(
+                    self.reference,
+                    y,
+                    self.supply_pressure_pa,
+                    self.pneumatic_eigenvalue,
+                );
                 self.last_command = self.pneumatic_step.duty;
                 self.last_compensation = 0.0;
             } else {
@@ -704,6 +778,21 @@ impl Axis {
                 // dither are added after it because they are already in command units at the
                 // actuator.
                 let e_scaled = self.gain_factor * e;
+                if let (Some(m), Some(a)) = (
+                    self.operating_points.as_mut(),
+                    self.adaptive_friction.as_mut(),
+                ) {
+                    let supply = match self.command_kind {
+                        CommandKind::Voltage => self.sensor.supply_voltage_v,
+                        CommandKind::Duty => self.supply_pressure_pa,
+                    };
+                    let op = OperatingPoint {
+                        position_m: y,
+                        load_n: 0.0,
+                        supply,
+                    };
+                    m.step(&op, a);
+                }
                 let comp = match (self.adaptive_friction.as_mut(), self.friction) {
                     (Some(a), _) => a.step(self.reference, y).compensation,
                     (None, Some(f)) => f.compensation(e),

@@ -2,9 +2,9 @@
 //! the file, the key and the rule broken.
 
 use crate::control::{
-    AdaptiveFriction, AdaptiveFrictionConfig, Dither, DitherConfig, GainSchedule,
-    NonlinearCorrection, NonlinearCorrectionConfig, ParamError, PneumaticAdaptive,
-    PneumaticAdaptiveConfig, SchedulePoint,
+    AdaptiveFriction, AdaptiveFrictionConfig, Dither, DitherConfig, GainSchedule, LearnedTable,
+    LearnedTableConfig, NonlinearCorrection, NonlinearCorrectionConfig, ParamError,
+    PneumaticAdaptive, PneumaticAdaptiveConfig, SchedulePoint,
 };
 use crate::supervise::{
     DisturbanceObserver, EstimatorSupervisorConfig, FaultMachineConfig, ObserverConfig,
@@ -42,7 +42,30 @@ pub struct Config {
     pub cycle: CycleConfig,
     #[serde(default)]
     pub record: RecordConfig,
+    #[serde(default)]
+    pub state: StateConfig,
     pub axis: Vec<AxisConfig>,
+}
+
+/// `[state]`: where what the axes learn is kept across restarts.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct StateConfig {
+    /// State file (TOML, written atomically: temporary file, fsync, rename); absent: nothing is
+    /// kept and every start learns again. Under systemd: `/var/lib/actuatord/<name>.toml`.
+    pub file: Option<PathBuf>,
+    /// How often the learned values are offered to the writer; the file is rewritten only when
+    /// they changed. They are also written when the daemon stops.
+    pub save_interval_s: f64,
+}
+
+impl Default for StateConfig {
+    fn default() -> Self {
+        Self {
+            file: None,
+            save_interval_s: 10.0,
+        }
+    }
 }
 
 #[derive(Debug, Clone, Deserialize, PartialEq)]
@@ -178,6 +201,8 @@ pub struct AxisConfig {
     pub parameter_estimation: Option<ParameterEstimationSection>,
     /// Reaction per supervised fault; absent: the defaults of [`FaultReactionsSection`].
     pub fault_reactions: Option<FaultReactionsSection>,
+    /// Adapted friction compensation stored by operating point (needs `[axis.adaptive_friction]`).
+    pub learned_table: Option<LearnedTableSection>,
     pub limits: LimitsConfig,
     /// A setpoint schedule; setpoint frames on the bus override it until its next entry.
     #[serde(default)]
@@ -218,6 +243,40 @@ pub struct FrictionCompensationConfig {
     /// Errors below this count as zero for the sign, m.
     #[serde(default)]
     pub deadband_m: f64,
+}
+
+/// `[axis.learned_table]`: the grid of operating points the adapted friction compensation is
+/// learned on. The sensor frames carry no load, so the grid has one load band; the supply is
+/// the one the axis measures (voltage for a voltage axis, pressure for a duty axis).
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct LearnedTableSection {
+    /// Band edges of the position (m), at least 2, increasing; outside: first or last band.
+    pub position_edges_m: Vec<f64>,
+    /// Band edges of the supply voltage (V); exactly one of this and `supply_pressure_edges_pa`.
+    pub supply_voltage_edges_v: Option<Vec<f64>>,
+    pub supply_pressure_edges_pa: Option<Vec<f64>>,
+    /// A cell averages over at most this many values (then forgets slowly).
+    #[serde(default = "default_averaging_count")]
+    pub averaging_count: u32,
+    /// A cell's values are used after this many.
+    #[serde(default = "default_min_count")]
+    pub min_count: u32,
+    /// How often the adapted values are folded into the present cell.
+    #[serde(default = "default_learn_interval_s")]
+    pub learn_interval_s: f64,
+}
+
+fn default_averaging_count() -> u32 {
+    20
+}
+
+fn default_min_count() -> u32 {
+    3
+}
+
+fn default_learn_interval_s() -> f64 {
+    1.0
 }
 
 /// `[axis.adaptive_friction]`: `U_comp±` adapted from the reference-model deviation
@@ -375,7 +434,7 @@ pub struct ObserverSection {
 }
 
 /// Nominal physical parameters `p = [T_I, D, ω0, K_P, F_C, F_0]`.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct NominalParameters {
     pub current_time_constant_s: f64,
@@ -517,6 +576,12 @@ impl Config {
             message: e.to_string().trim_end().replace('\n', "\n  "),
         })?;
         let folder = file.parent().unwrap_or(Path::new("."));
+        // Relative paths are relative to the configuration file, not to where the daemon runs.
+        if let Some(f) = config.state.file.as_mut() {
+            if f.is_relative() {
+                *f = folder.join(&*f);
+            }
+        }
         for axis in config.axis.iter_mut() {
             if let Some(f) = axis.controller.state_space_file.as_mut() {
                 if f.is_relative() {
@@ -565,6 +630,7 @@ impl Config {
         positive("[node] heartbeat_period_s", self.node.heartbeat_period_s)?;
         positive("[node] status_period_s", self.node.status_period_s)?;
         positive("[cycle] period_s", self.cycle.period_s)?;
+        positive("[state] save_interval_s", self.state.save_interval_s)?;
         positive("[cycle] sensor_deadline_s", self.cycle.sensor_deadline_s)?;
         if self.cycle.sensor_deadline_s >= self.cycle.period_s {
             return Err(bad(
@@ -848,6 +914,30 @@ fn schedule_points(
 }
 
 impl AxisConfig {
+    /// `[axis.learned_table]` as the table's grid and the learning period in cycles.
+    pub fn learned_table_config(&self, period_s: f64) -> Option<(LearnedTableConfig, u32)> {
+        let t = self.learned_table.as_ref()?;
+        let supply = t
+            .supply_voltage_edges_v
+            .clone()
+            .or_else(|| t.supply_pressure_edges_pa.clone())
+            .unwrap_or_default();
+        Some((
+            LearnedTableConfig {
+                position_edges_m: t.position_edges_m.clone(),
+                // No load on the frames: one band that every operating point falls into.
+                load_edges_n: vec![0.0, 1.0],
+                supply_edges: supply,
+                param_names: crate::daemon::learned::FRICTION_TABLE_PARAMS
+                    .map(String::from)
+                    .to_vec(),
+                averaging_count: t.averaging_count,
+                min_count: t.min_count,
+            },
+            cycles(t.learn_interval_s, period_s),
+        ))
+    }
+
     /// `[axis.adaptive_friction]` as the algorithm's configuration; starts from the feed-forward
     /// values `α F_C± / K` of `[axis.friction_compensation]` when given (clamped to the maximum).
     pub fn adaptive_friction_config(&self, period_s: f64) -> Option<AdaptiveFrictionConfig> {
@@ -1034,6 +1124,47 @@ impl AxisConfig {
     fn check_intelligence(&self, period_s: f64) -> Result<(), KeyRule> {
         if let Some(c) = self.adaptive_friction_config(period_s) {
             AdaptiveFriction::new(c).map_err(param("adaptive_friction"))?;
+        }
+        if let Some(t) = &self.learned_table {
+            if self.adaptive_friction.is_none() {
+                return Err((
+                    "learned_table".to_string(),
+                    "stores the adapted friction compensation: it needs [axis.adaptive_friction]"
+                        .to_string(),
+                ));
+            }
+            let (key, wanted) = match self.command {
+                CommandKind::Voltage => ("supply_voltage_edges_v", &t.supply_voltage_edges_v),
+                CommandKind::Duty => ("supply_pressure_edges_pa", &t.supply_pressure_edges_pa),
+            };
+            let other = match self.command {
+                CommandKind::Voltage => ("supply_pressure_edges_pa", &t.supply_pressure_edges_pa),
+                CommandKind::Duty => ("supply_voltage_edges_v", &t.supply_voltage_edges_v),
+            };
+            if wanted.is_none() || other.1.is_some() {
+                return Err((
+                    format!("learned_table.{key}"),
+                    format!(
+                        "is the supply this axis measures: set it, and not {}",
+                        other.0
+                    ),
+                ));
+            }
+            if !(t.learn_interval_s.is_finite() && t.learn_interval_s > 0.0) {
+                return Err((
+                    "learned_table.learn_interval_s".to_string(),
+                    format!("must be > 0, got {}", t.learn_interval_s),
+                ));
+            }
+            if let Some((c, _)) = self.learned_table_config(period_s) {
+                LearnedTable::new(c).map_err(|e| {
+                    let key = match e.name {
+                        "supply_edges" => key,
+                        other => other,
+                    };
+                    (format!("learned_table.{key}"), e.reason)
+                })?;
+            }
         }
         if let Some(c) = self.dither_config(period_s) {
             let d = self.dither.as_ref().is_some_and(|d| d.adapt);
@@ -1272,5 +1403,36 @@ mod tests {
         let t = GOOD.replace("actuator_node_id = 16", "actuator_node_id = 1");
         let e = err(&t);
         assert!(e.contains("already used"), "{e}");
+    }
+
+    #[test]
+    fn a_learned_table_needs_adaptive_friction_and_the_axis_own_supply() {
+        let table = "\n[axis.learned_table]\nposition_edges_m = [0.0, 0.01]\n";
+        let (a, b) = (
+            GOOD.find("[axis.adaptive_friction]").expect("section"),
+            GOOD.find("[axis.observer]").expect("section"),
+        );
+        let plain = format!("{}{}", &GOOD[..a], &GOOD[b..]);
+        let e = err(&format!(
+            "{plain}{table}supply_voltage_edges_v = [20.0, 30.0]\n"
+        ));
+        assert!(
+            e.ends_with("learned_table stores the adapted friction compensation: it needs [axis.adaptive_friction]"),
+            "{e}"
+        );
+        let e = err(&format!(
+            "{GOOD}{table}supply_pressure_edges_pa = [2e5, 6e5]\n"
+        ));
+        assert!(
+            e.contains("learned_table.supply_voltage_edges_v is the supply this axis measures"),
+            "{e}"
+        );
+        let e = err(&format!(
+            "{GOOD}{table}supply_voltage_edges_v = [30.0, 20.0]\n"
+        ));
+        assert!(e.contains("learned_table.supply_voltage_edges_v"), "{e}");
+        let good = format!("{GOOD}{table}supply_voltage_edges_v = [20.0, 30.0]\n");
+        let c = Config::from_toml(&good, Path::new("x.toml")).expect("valid");
+        assert!(c.axis[0].learned_table_config(0.0025).is_some());
     }
 }

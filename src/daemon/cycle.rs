@@ -6,6 +6,7 @@ use super::node::{ControllerNode, CycleTiming};
 use super::record::{Event, Record};
 use super::recorder::RecordSink;
 use super::rt;
+use super::state::StateSink;
 use crate::bus::{Bus, BusError, BusEvent, Frame};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::Receiver;
@@ -220,19 +221,37 @@ pub fn run_cycle(
     progress: &AtomicU64,
     sink: &RecordSink,
 ) -> Result<CycleReport, BusError> {
-    run_cycle_reloadable(bus, node, settings, stop, progress, sink, None)
+    run_cycle_with(
+        bus,
+        node,
+        settings,
+        stop,
+        progress,
+        sink,
+        CycleServices::default(),
+    )
 }
 
-/// [`run_cycle`], taking new configurations from `reload` at cycle boundaries.
-pub fn run_cycle_reloadable(
+/// What the daemon adds around the cycle: new configurations (SIGHUP) and the state writer.
+#[derive(Default)]
+pub struct CycleServices {
+    /// New configurations, each taken at the next cycle boundary.
+    pub reload: Option<Receiver<Box<Config>>>,
+    /// What the axes learned is offered to it every so many cycles, and once at the end.
+    pub state: Option<StateSink>,
+}
+
+/// [`run_cycle`] with the daemon's services.
+pub fn run_cycle_with(
     bus: &mut dyn Bus,
     node: &mut ControllerNode,
     settings: CycleSettings,
     stop: &AtomicBool,
     progress: &AtomicU64,
     sink: &RecordSink,
-    reload: Option<Receiver<Box<Config>>>,
+    services: CycleServices,
 ) -> Result<CycleReport, BusError> {
+    let CycleServices { reload, state } = services;
     let realtime =
         settings.realtime_priority > 0 && rt::set_fifo_priority(settings.realtime_priority).is_ok();
     let memory_locked = settings.lock_memory && rt::lock_memory().is_ok();
@@ -255,14 +274,23 @@ pub fn run_cycle_reloadable(
     )
     .record_frames(settings.record_frames)
     .reload_from(reload);
-    runner.boot()?;
     let period_ns = runner.period_ns();
     let mut k: u64 = 0;
-    while !stop.load(Ordering::Relaxed) && limit.is_none_or(|n| k < n) {
+    let mut outcome = runner.boot();
+    while outcome.is_ok() && !stop.load(Ordering::Relaxed) && limit.is_none_or(|n| k < n) {
         rt::sleep_until_ns(runner.release_ns(k));
         let woke_ns = rt::monotonic_ns();
-        let sent_ns = runner.run_once(k, woke_ns)?;
+        let sent_ns = match runner.run_once(k, woke_ns) {
+            Ok(ns) => ns,
+            Err(e) => {
+                outcome = Err(e);
+                break;
+            }
+        };
         progress.store(k + 1, Ordering::Relaxed);
+        if let Some(state) = state.as_ref().filter(|s| (k + 1) % s.every_cycles() == 0) {
+            state.offer(runner.node);
+        }
         // Overrun: the next release time has already passed. Skip the lost periods instead of
         // running a burst of late cycles.
         k += 1;
@@ -278,7 +306,13 @@ pub fn run_cycle_reloadable(
             k += late_ns / period_ns + 1;
         }
     }
-    runner.shutdown()?;
+    let shutdown = runner.shutdown();
+    // What was learned is kept even when the bus has failed.
+    if let Some(state) = state {
+        state.finish(runner.node);
+    }
+    outcome?;
+    shutdown?;
     Ok(CycleReport {
         cycles: runner.node.counters().cycles,
         overruns: runner.node.counters().overruns,

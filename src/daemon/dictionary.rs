@@ -1,8 +1,14 @@
 //! The daemon's object dictionary: built from the configuration, fed with live values, and
 //! the way SDO writes reach the configuration at a cycle boundary.
 
+use super::axis::AxisStep;
 use super::config::{AxisConfig, CommandKind, Config, FrictionCompensationConfig};
+use super::learned::AxisLearned;
 use super::record::CycleRecord;
+use crate::canopen::od::axis_intelligence::{
+    symptom_bits, AdaptiveFrictionParameters, EstimationParameters, IntelligenceParameters,
+    ObserverParameters, ScheduleParameters, BAND_NAMES, ESTIMATE_NAMES, NOMINAL_NAMES,
+};
 use crate::canopen::od::{
     daemon_dictionary, AxisParameters, BuildError, DeviceParameters, Handle, PendingWrite,
 };
@@ -51,6 +57,52 @@ pub fn axis_parameters(a: &AxisConfig) -> AxisParameters {
         supply_time_s: l.supply_time_s,
         sensor_timeout_s: l.sensor_timeout_s,
         heartbeat_timeout_s: l.heartbeat_timeout_s.unwrap_or(inf),
+        intelligence: intelligence_parameters(a),
+    }
+}
+
+/// The intelligent sections as the dictionary shows them.
+fn intelligence_parameters(a: &AxisConfig) -> IntelligenceParameters {
+    IntelligenceParameters {
+        adaptive_friction: a
+            .adaptive_friction
+            .as_ref()
+            .map(|f| AdaptiveFrictionParameters {
+                model_time_constant_s: f.model_time_constant_s,
+                adaptation_gain_per_m_s: f.adaptation_gain_per_m_s,
+                compensation_max: f.compensation_max,
+                error_deadband_m: f.error_deadband_m,
+                model_deadband_m: f.model_deadband_m,
+                settled_band_m: f.settled_band_m,
+            }),
+        observer: a.observer.as_ref().map(|o| ObserverParameters {
+            residual_max_m: o.residual_max_m,
+            moving_speed_m_per_s: o.moving_speed_m_per_s,
+            learn_samples: o.learn_samples,
+            band_sigmas: o.band_sigmas,
+            band_min_halfwidth_m: o.band_min_halfwidth_m,
+            smoothing_time_constant_s: o.smoothing_time_constant_s,
+            persistence_samples: o.persistence_samples,
+        }),
+        estimation: a
+            .parameter_estimation
+            .as_ref()
+            .map(|e| EstimationParameters {
+                window_updates: e.window_updates.min(u64::from(u32::MAX)) as u32,
+                nominal_windows: e.nominal_windows,
+                confirm_windows: e.confirm_windows,
+                max_distance: e.max_distance.min(6) as u8,
+            }),
+        schedule: a.schedule.as_ref().map(|s| {
+            let (variable, supply) = s.variable();
+            ScheduleParameters {
+                supply_is_pressure: variable == super::config::ScheduleVariable::SupplyPressure,
+                supply: supply.to_vec(),
+                gain_factor: s.gain_factor.clone(),
+                drive_gain_down_m_per_s: s.drive_gain_down_m_per_s.clone(),
+                drive_gain_up_m_per_s: s.drive_gain_up_m_per_s.clone(),
+            }
+        }),
     }
 }
 
@@ -98,6 +150,7 @@ pub fn apply_write(config: &mut Config, w: &PendingWrite) -> Result<WriteEffect,
     let number = match w.value {
         Value::Real64(v) => v,
         Value::Real32(v) => f64::from(v),
+        Value::Unsigned8(v) => f64::from(v),
         Value::Unsigned16(v) => f64::from(v),
         Value::Unsigned32(v) => f64::from(v),
         Value::Boolean(b) => f64::from(u8::from(b)),
@@ -186,9 +239,70 @@ pub fn apply_write(config: &mut Config, w: &PendingWrite) -> Result<WriteEffect,
         "supply_time_s" => l.supply_time_s = number,
         "sensor_timeout_s" => l.sensor_timeout_s = number,
         "heartbeat_timeout_s" => l.heartbeat_timeout_s = finite(number),
-        other => return Err(format!("{}: {other} is not writable here", w.id)),
+        other => {
+            return apply_intelligence_write(a, w, other, number)
+                .map(|()| WriteEffect::Rebuild { axis })
+        }
     }
     Ok(WriteEffect::Rebuild { axis })
+}
+
+/// A write to one of the intelligent sections (present in the dictionary only when configured).
+fn apply_intelligence_write(
+    a: &mut AxisConfig,
+    w: &PendingWrite,
+    name: &str,
+    number: f64,
+) -> Result<(), String> {
+    let missing = || format!("{}: {name}: the section is not configured", w.id);
+    let count = number as u32;
+    match name {
+        "model_time_constant_s"
+        | "adaptation_gain_per_m_s"
+        | "compensation_max"
+        | "error_deadband_m"
+        | "model_deadband_m"
+        | "settled_band_m" => {
+            let f = a.adaptive_friction.as_mut().ok_or_else(missing)?;
+            *match name {
+                "model_time_constant_s" => &mut f.model_time_constant_s,
+                "adaptation_gain_per_m_s" => &mut f.adaptation_gain_per_m_s,
+                "compensation_max" => &mut f.compensation_max,
+                "error_deadband_m" => &mut f.error_deadband_m,
+                "model_deadband_m" => &mut f.model_deadband_m,
+                _ => &mut f.settled_band_m,
+            } = number;
+        }
+        "residual_max_m"
+        | "moving_speed_m_per_s"
+        | "band_sigmas"
+        | "band_min_halfwidth_m"
+        | "smoothing_time_constant_s" => {
+            let o = a.observer.as_mut().ok_or_else(missing)?;
+            *match name {
+                "residual_max_m" => &mut o.residual_max_m,
+                "moving_speed_m_per_s" => &mut o.moving_speed_m_per_s,
+                "band_sigmas" => &mut o.band_sigmas,
+                "band_min_halfwidth_m" => &mut o.band_min_halfwidth_m,
+                _ => &mut o.smoothing_time_constant_s,
+            } = number;
+        }
+        "learn_samples" => a.observer.as_mut().ok_or_else(missing)?.learn_samples = count,
+        "persistence_samples" => {
+            a.observer.as_mut().ok_or_else(missing)?.persistence_samples = count
+        }
+        "window_updates" | "nominal_windows" | "confirm_windows" | "max_distance" => {
+            let e = a.parameter_estimation.as_mut().ok_or_else(missing)?;
+            match name {
+                "window_updates" => e.window_updates = u64::from(count),
+                "nominal_windows" => e.nominal_windows = count,
+                "confirm_windows" => e.confirm_windows = count,
+                _ => e.max_distance = count as usize,
+            }
+        }
+        other => return Err(format!("{}: {other} is not writable here", w.id)),
+    }
+    Ok(())
 }
 
 /// Handles of the values the node publishes, looked up once so publishing is a store.
@@ -219,6 +333,14 @@ struct AxisObjects {
     drive_gain_up: Option<Handle>,
     observer_x4_pos: Option<Handle>,
     observer_x4_neg: Option<Handle>,
+    estimates: [Option<Handle>; 6],
+    nominal: [Option<Handle>; 6],
+    symptoms: Option<Handle>,
+    diagnosed_fault: Option<Handle>,
+    diagnosis_confidence: Option<Handle>,
+    nominal_learned: Option<Handle>,
+    bands: [Option<Handle>; 4],
+    learned_table_cells: Option<Handle>,
 }
 
 /// Node-wide figures published each status period.
@@ -272,6 +394,14 @@ impl LiveObjects {
                     drive_gain_up: a(i, "drive_gain_up"),
                     observer_x4_pos: a(i, "observer_x4_pos"),
                     observer_x4_neg: a(i, "observer_x4_neg"),
+                    estimates: ESTIMATE_NAMES.map(|n| a(i, n)),
+                    nominal: NOMINAL_NAMES.map(|n| a(i, n)),
+                    symptoms: a(i, "symptoms"),
+                    diagnosed_fault: a(i, "diagnosed_fault"),
+                    diagnosis_confidence: a(i, "diagnosis_confidence"),
+                    nominal_learned: a(i, "nominal_learned"),
+                    bands: BAND_NAMES.map(|n| a(i, n)),
+                    learned_table_cells: a(i, "learned_table_cells"),
                 })
                 .collect(),
         }
@@ -351,5 +481,51 @@ impl LiveObjects {
         put(h.drive_gain_up, Value::Real64(r.drive_gain_up));
         put(h.observer_x4_pos, Value::Real64(r.observer_x4_pos));
         put(h.observer_x4_neg, Value::Real64(r.observer_x4_neg));
+    }
+
+    /// Publish what one axis' supervision estimated and learned.
+    pub fn publish_diagnosis(
+        &self,
+        od: &mut ObjectDictionary,
+        axis: usize,
+        r: &CycleRecord,
+        step: &AxisStep,
+        learned: &AxisLearned,
+        learned_table_cells: usize,
+    ) {
+        let Some(h) = self.axes.get(axis) else { return };
+        let mut put = |h: Option<Handle>, v: Value| {
+            if let Some(h) = h {
+                let _ = od.publish(h, v);
+            }
+        };
+        let estimate = step.model.estimate.map_or([f64::NAN; 6], |p| p.values);
+        for (h, v) in h.estimates.iter().zip(estimate) {
+            put(*h, Value::Real64(v));
+        }
+        for (h, v) in h
+            .nominal
+            .iter()
+            .zip(learned.nominal.unwrap_or([f64::NAN; 6]))
+        {
+            put(*h, Value::Real64(v));
+        }
+        put(h.symptoms, Value::Unsigned16(symptom_bits(&r.symptoms)));
+        put(h.diagnosed_fault, Value::Unsigned8(r.diagnosed_fault));
+        put(
+            h.diagnosis_confidence,
+            Value::Real64(r.diagnosis_confidence),
+        );
+        put(h.nominal_learned, Value::Boolean(learned.nominal.is_some()));
+        let bands = learned
+            .observer_bands
+            .map_or([f64::NAN; 4], |[p, n]| [p.0, p.1, n.0, n.1]);
+        for (h, v) in h.bands.iter().zip(bands) {
+            put(*h, Value::Real64(v));
+        }
+        put(
+            h.learned_table_cells,
+            Value::Unsigned32(saturate(learned_table_cells as u64)),
+        );
     }
 }

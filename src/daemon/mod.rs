@@ -6,13 +6,17 @@ pub mod bus_load;
 pub mod config;
 pub mod cycle;
 pub mod dictionary;
+pub mod learned;
 pub mod node;
 pub mod notify;
 pub mod record;
 pub mod recorder;
 pub mod rt;
+pub mod state;
 
 pub use config::Config;
-pub use cycle::{run_cycle, run_cycle_reloadable, CycleReport, CycleRunner, CycleSettings};
+pub use cycle::{
+    run_cycle, run_cycle_with, CycleReport, CycleRunner, CycleServices, CycleSettings,
+};
 pub use node::ControllerNode;
 pub use recorder::{RecordSink, Recorder, RecorderReport};

@@ -210,6 +210,11 @@ impl ControllerNode {
         &self.axes
     }
 
+    /// The axes, to give them what they learned before (a state file).
+    pub fn axes_mut(&mut self) -> &mut [Axis] {
+        &mut self.axes
+    }
+
     /// Boot: announce ourselves, start the actuator nodes, go operational (we are the NMT master).
     pub fn boot(&mut self, send: &mut dyn FnMut(&Frame), record: &mut dyn FnMut(Record)) {
         send(&encode_heartbeat(self.node_id, NmtState::Initialising));
@@ -546,6 +551,15 @@ impl ControllerNode {
                     self.axis_faults_raised[index],
                     self.axis_sensor_missed[index],
                 );
+                let axis = &self.axes[index];
+                self.live.publish_diagnosis(
+                    &mut self.od,
+                    index,
+                    &rec,
+                    &step,
+                    &axis.learned(),
+                    axis.learned_table().map_or(0, |t| t.populated_cells()),
+                );
             }
             record(Record::Cycle(rec));
         }
@@ -644,7 +658,7 @@ impl ControllerNode {
                 config.validate(origin).map_err(|e| e.to_string())?;
                 let mut axis =
                     Axis::new(&config.axis[i], self.period_s).map_err(|e| e.to_string())?;
-                axis.set_setpoint(self.axes[i].setpoint());
+                axis.continue_from(&self.axes[i]);
                 Ok((i, axis))
             })
             .collect();

@@ -204,6 +204,22 @@ impl DisturbanceObserver {
         })
     }
 
+    /// Take bands learned before (a stored state): `[(low, high) of x4+, (low, high) of x4-]`.
+    /// Non-finite or inverted bands are ignored and learned again.
+    pub fn restore_bands(&mut self, bands: [(f64, f64); 2]) {
+        for (band, (low, high)) in self.bands.iter_mut().zip(bands) {
+            if low.is_finite() && high.is_finite() && low <= high {
+                *band = DirectionBand {
+                    n: self.config.learn_samples,
+                    mean: 0.5 * (low + high),
+                    low,
+                    high,
+                    ..DirectionBand::default()
+                };
+            }
+        }
+    }
+
     /// Forget the learned bands and learn again.
     pub fn relearn(&mut self) {
         self.bands = [DirectionBand::default(); 2];
@@ -341,5 +357,17 @@ mod tests {
         }
         assert!((out.state[3] + 2e-4).abs() < 1e-7, "x4 = {}", out.state[3]);
         assert!(out.residual.abs() < 1e-9);
+    }
+
+    #[test]
+    fn restored_bands_count_as_learned_and_bad_ones_are_learned_again() {
+        let mut o = DisturbanceObserver::new(cfg()).expect("valid");
+        assert_eq!(o.bands(), None);
+        let stored = [(-3e-4, -1e-4), (1e-4, 3e-4)];
+        o.restore_bands(stored);
+        assert_eq!(o.bands(), Some(stored));
+        let mut fresh = DisturbanceObserver::new(cfg()).expect("valid");
+        fresh.restore_bands([(f64::NAN, 1.0), (2e-4, 1e-4)]);
+        assert_eq!(fresh.bands(), None, "NaN and inverted bands are not taken");
     }
 }

@@ -12,13 +12,16 @@
 //! | … + 03h | limits (supervision) |
 //! | … + 04h | setpoint |
 //! | … + 05h | fault state, counters, reset |
+//! | … + 06h..09h | intelligent sections (see [`super::axis_intelligence`]) |
 //! | … + 10h | learned parameters (results of identification and adaptation, read-only) |
+//! | … + 11h | diagnosis: estimates, nominal values, symptoms, observer bands (read-only) |
 //! | 2F00h | loop statistics of the cycle (node-wide: one cycle serves every axis) |
 //!
 //! The protocol layer does not read the daemon's configuration: the runtime fills
 //! [`DeviceParameters`] and [`AxisParameters`] from it, and a tool that only needs the types
 //! uses their defaults.
 
+use super::axis_intelligence::{intelligence_objects, IntelligenceParameters};
 use super::{BuildError, EntrySpec, ObjectDictionary, ObjectDictionaryBuilder, ObjectId, Value};
 
 /// Manufacturer blocks are 100h apart from 2000h; 2F00h is node-wide, so 15 axes fit.
@@ -137,6 +140,7 @@ pub struct AxisParameters {
     pub supply_time_s: f64,
     pub sensor_timeout_s: f64,
     pub heartbeat_timeout_s: f64,
+    pub intelligence: IntelligenceParameters,
 }
 
 impl Default for AxisParameters {
@@ -171,6 +175,7 @@ impl Default for AxisParameters {
             supply_time_s: 0.01,
             sensor_timeout_s: 0.02,
             heartbeat_timeout_s: f64::INFINITY,
+            intelligence: IntelligenceParameters::default(),
         }
     }
 }
@@ -441,6 +446,7 @@ fn axis_objects(
             .unit("m")
             .doc("observer disturbance state x4 learned for motion in - direction"),
     ];
+    let b = intelligence_objects(b, i, at, &a.intelligence, cu);
     Ok(b
         .record(
             at(index::AXIS),

@@ -23,6 +23,7 @@
 //! are inline, and the staging area has one slot per writable entry (a second write to the same
 //! entry before the boundary replaces the first).
 
+pub mod axis_intelligence;
 mod builder;
 mod daemon_objects;
 mod table;

@@ -1,0 +1,315 @@
+//! The objects of an axis' intelligent sections: the parameters of the adaptive friction
+//! compensation, the disturbance observer, the parameter-estimation diagnosis and the supply
+//! schedule (each present only when the axis has it), and what the supervision has estimated
+//! and learned (always present; published as `NaN` while nothing is known, 0 before the first
+//! status period).
+//!
+//! | offset | object | access |
+//! |---|---|---|
+//! | 06h | adaptive friction compensation | rw in pre-operational |
+//! | 07h | disturbance observer (supervision thresholds) | rw in pre-operational |
+//! | 08h | parameter estimation (windows, confirmation) | rw in pre-operational |
+//! | 09h | supply schedule (points) | ro: a schedule is edited in the file (SIGHUP) |
+//! | 11h | diagnosis: estimates, nominal values, symptoms, observer bands, learned cells | ro |
+//!
+//! Entry names are the config keys (and, for results, the names of the state file and the
+//! recording), unique within an axis.
+
+use super::{ObjectDictionaryBuilder, Value};
+use crate::canopen::od::EntrySpec;
+
+/// Offsets inside an axis block (see `daemon_objects::index`).
+pub const ADAPTIVE_FRICTION: u16 = 0x06;
+pub const OBSERVER: u16 = 0x07;
+pub const PARAMETER_ESTIMATION: u16 = 0x08;
+pub const SCHEDULE: u16 = 0x09;
+pub const DIAGNOSIS: u16 = 0x11;
+
+/// Most schedule points the dictionary shows.
+pub const MAX_SCHEDULE_POINTS: usize = 8;
+
+/// `[axis.adaptive_friction]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AdaptiveFrictionParameters {
+    pub model_time_constant_s: f64,
+    pub adaptation_gain_per_m_s: f64,
+    pub compensation_max: f64,
+    pub error_deadband_m: f64,
+    pub model_deadband_m: f64,
+    pub settled_band_m: f64,
+}
+
+/// The supervision thresholds of `[axis.observer]` (its model is structural: a restart).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ObserverParameters {
+    pub residual_max_m: f64,
+    pub moving_speed_m_per_s: f64,
+    pub learn_samples: u32,
+    pub band_sigmas: f64,
+    pub band_min_halfwidth_m: f64,
+    pub smoothing_time_constant_s: f64,
+    pub persistence_samples: u32,
+}
+
+/// The windows of `[axis.parameter_estimation]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EstimationParameters {
+    pub window_updates: u32,
+    pub nominal_windows: u32,
+    pub confirm_windows: u32,
+    pub max_distance: u8,
+}
+
+/// `[axis.schedule]`: supply points and the scheduled values at each.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScheduleParameters {
+    /// The supply is a pressure (Pa) rather than a voltage (V).
+    pub supply_is_pressure: bool,
+    pub supply: Vec<f64>,
+    /// `gain_factor`, or `drive_gain_down_m_per_s` and `drive_gain_up_m_per_s`, per point.
+    pub gain_factor: Option<Vec<f64>>,
+    pub drive_gain_down_m_per_s: Option<Vec<f64>>,
+    pub drive_gain_up_m_per_s: Option<Vec<f64>>,
+}
+
+/// What an axis has of the intelligent sections.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct IntelligenceParameters {
+    pub adaptive_friction: Option<AdaptiveFrictionParameters>,
+    pub observer: Option<ObserverParameters>,
+    pub estimation: Option<EstimationParameters>,
+    pub schedule: Option<ScheduleParameters>,
+}
+
+/// Names of the physical parameters, as estimate and nominal entries.
+pub const ESTIMATE_NAMES: [&str; 6] = [
+    "estimate_current_time_constant_s",
+    "estimate_damping_ratio",
+    "estimate_natural_frequency_rad_per_s",
+    "estimate_static_gain_m_per_v",
+    "estimate_coulomb_friction_n",
+    "estimate_pretension_n",
+];
+pub const NOMINAL_NAMES: [&str; 6] = [
+    "nominal_current_time_constant_s",
+    "nominal_damping_ratio",
+    "nominal_natural_frequency_rad_per_s",
+    "nominal_static_gain_m_per_v",
+    "nominal_coulomb_friction_n",
+    "nominal_pretension_n",
+];
+const UNITS: [&str; 6] = ["s", "", "rad/s", "m/V", "N", "N"];
+
+/// The observer's learned bands, in the order of the diagnosis record.
+pub const BAND_NAMES: [&str; 4] = [
+    "observer_x4_pos_low_m",
+    "observer_x4_pos_high_m",
+    "observer_x4_neg_low_m",
+    "observer_x4_neg_high_m",
+];
+
+const SUPPLY_NAMES: [&str; MAX_SCHEDULE_POINTS] = [
+    "supply_0", "supply_1", "supply_2", "supply_3", "supply_4", "supply_5", "supply_6", "supply_7",
+];
+const FACTOR_NAMES: [&str; MAX_SCHEDULE_POINTS] = [
+    "gain_factor_0",
+    "gain_factor_1",
+    "gain_factor_2",
+    "gain_factor_3",
+    "gain_factor_4",
+    "gain_factor_5",
+    "gain_factor_6",
+    "gain_factor_7",
+];
+const DOWN_NAMES: [&str; MAX_SCHEDULE_POINTS] = [
+    "drive_gain_down_0",
+    "drive_gain_down_1",
+    "drive_gain_down_2",
+    "drive_gain_down_3",
+    "drive_gain_down_4",
+    "drive_gain_down_5",
+    "drive_gain_down_6",
+    "drive_gain_down_7",
+];
+const UP_NAMES: [&str; MAX_SCHEDULE_POINTS] = [
+    "drive_gain_up_0",
+    "drive_gain_up_1",
+    "drive_gain_up_2",
+    "drive_gain_up_3",
+    "drive_gain_up_4",
+    "drive_gain_up_5",
+    "drive_gain_up_6",
+    "drive_gain_up_7",
+];
+
+/// A length or speed threshold: > 0 and at most this.
+const THRESHOLD_MAX: f64 = 1e3;
+const POSITIVE_MIN: f64 = 1e-12;
+
+/// Add the intelligent-section objects of axis `i` (indices from `at(offset)`).
+pub fn intelligence_objects(
+    mut b: ObjectDictionaryBuilder,
+    i: usize,
+    at: impl Fn(u16) -> u16,
+    p: &IntelligenceParameters,
+    command_unit: &'static str,
+) -> ObjectDictionaryBuilder {
+    let axis = Some(i);
+    if let Some(a) = &p.adaptive_friction {
+        b = b.record(
+            at(ADAPTIVE_FRICTION),
+            format!("axis{i}_adaptive_friction"),
+            axis,
+            vec![
+                EntrySpec::rw_preop("model_time_constant_s", a.model_time_constant_s)
+                    .unit("s")
+                    .between(POSITIVE_MIN, 1e3)
+                    .doc("T_M of the reference model y_M"),
+                EntrySpec::rw_preop("adaptation_gain_per_m_s", a.adaptation_gain_per_m_s)
+                    .between(0.0, 1e9)
+                    .doc("gamma: compensation change per m of model deviation per s"),
+                EntrySpec::rw_preop("compensation_max", a.compensation_max)
+                    .unit(command_unit)
+                    .between(0.0, 1e3)
+                    .doc("largest U_comp per direction"),
+                EntrySpec::rw_preop("error_deadband_m", a.error_deadband_m)
+                    .unit("m")
+                    .between(0.0, 1.0),
+                EntrySpec::rw_preop("model_deadband_m", a.model_deadband_m)
+                    .unit("m")
+                    .between(0.0, 1.0),
+                EntrySpec::rw_preop("settled_band_m", a.settled_band_m)
+                    .unit("m")
+                    .between(POSITIVE_MIN, 1.0),
+            ],
+        );
+    }
+    if let Some(o) = &p.observer {
+        b = b.record(
+            at(OBSERVER),
+            format!("axis{i}_observer"),
+            axis,
+            vec![
+                EntrySpec::rw_preop("residual_max_m", o.residual_max_m)
+                    .unit("m")
+                    .between(POSITIVE_MIN, THRESHOLD_MAX)
+                    .doc("x4 is judged only while |y - Y_hat| is below this"),
+                EntrySpec::rw_preop("moving_speed_m_per_s", o.moving_speed_m_per_s)
+                    .unit("m/s")
+                    .between(POSITIVE_MIN, THRESHOLD_MAX),
+                EntrySpec::rw_preop("learn_samples", o.learn_samples)
+                    .range(Some(Value::Unsigned32(1)), None)
+                    .doc("samples per direction that make the nominal band"),
+                EntrySpec::rw_preop("band_sigmas", o.band_sigmas).between(POSITIVE_MIN, 100.0),
+                EntrySpec::rw_preop("band_min_halfwidth_m", o.band_min_halfwidth_m)
+                    .unit("m")
+                    .between(0.0, THRESHOLD_MAX),
+                EntrySpec::rw_preop("smoothing_time_constant_s", o.smoothing_time_constant_s)
+                    .unit("s")
+                    .between(0.0, 1e3),
+                EntrySpec::rw_preop("persistence_samples", o.persistence_samples)
+                    .range(Some(Value::Unsigned32(1)), None),
+            ],
+        );
+    }
+    if let Some(e) = &p.estimation {
+        b = b.record(
+            at(PARAMETER_ESTIMATION),
+            format!("axis{i}_parameter_estimation"),
+            axis,
+            vec![
+                EntrySpec::rw_preop("window_updates", e.window_updates)
+                    .range(Some(Value::Unsigned32(1)), None)
+                    .doc("estimator updates per window (one short test)"),
+                EntrySpec::rw_preop("nominal_windows", e.nominal_windows)
+                    .range(Some(Value::Unsigned32(1)), None)
+                    .doc("first windows averaged into the nominal values (unless configured)"),
+                EntrySpec::rw_preop("confirm_windows", e.confirm_windows)
+                    .range(Some(Value::Unsigned32(1)), None)
+                    .doc("windows in a row that must agree on a fault"),
+                EntrySpec::rw_preop("max_distance", e.max_distance)
+                    .range(None, Some(Value::Unsigned8(6)))
+                    .doc("most symptoms a diagnosis may differ from its table row"),
+            ],
+        );
+    }
+    if let Some(s) = &p.schedule {
+        let supply_unit = if s.supply_is_pressure { "Pa" } else { "V" };
+        let n = s.supply.len().min(MAX_SCHEDULE_POINTS);
+        let mut entries = vec![EntrySpec::ro("points", n as u8)];
+        for (k, v) in s.supply.iter().take(n).enumerate() {
+            entries.push(EntrySpec::ro(SUPPLY_NAMES[k], *v).unit(supply_unit));
+        }
+        let columns = [
+            (&s.gain_factor, &FACTOR_NAMES, ""),
+            (&s.drive_gain_down_m_per_s, &DOWN_NAMES, "m/s"),
+            (&s.drive_gain_up_m_per_s, &UP_NAMES, "m/s"),
+        ];
+        for (column, names, unit) in columns {
+            for (k, v) in column.iter().flatten().take(n).enumerate() {
+                entries.push(EntrySpec::ro(names[k], *v).unit(unit));
+            }
+        }
+        b = b.record(at(SCHEDULE), format!("axis{i}_schedule"), axis, entries);
+    }
+    let mut diagnosis: Vec<EntrySpec> = ESTIMATE_NAMES
+        .iter()
+        .zip(UNITS)
+        .map(|(n, u)| {
+            EntrySpec::ro(n, 0.0f64)
+                .unit(u)
+                .doc("from the last usable estimation window; NaN before one")
+        })
+        .collect();
+    diagnosis.extend(NOMINAL_NAMES.iter().zip(UNITS).map(|(n, u)| {
+        EntrySpec::ro(n, 0.0f64)
+            .unit(u)
+            .doc("configured, learned from the first windows, or restored from the state file")
+    }));
+    diagnosis.push(
+        EntrySpec::ro("symptoms", 0u16)
+            .doc("2 bits per [T_I, D, omega0, K_P, F_C, F_0], bit 0 first: 01 +, 10 -, 00 0"),
+    );
+    diagnosis.push(
+        EntrySpec::ro("diagnosed_fault", 0u8)
+            .doc("latest latched supervised fault, codes of the DBC value table; 0 none"),
+    );
+    diagnosis.push(EntrySpec::ro("diagnosis_confidence", 1.0f64));
+    diagnosis.push(EntrySpec::ro("nominal_learned", false));
+    diagnosis.extend(BAND_NAMES.iter().map(|n| {
+        EntrySpec::ro(n, 0.0f64)
+            .unit("m")
+            .doc("learned nominal band of the observer's x4; NaN before it is learned")
+    }));
+    diagnosis.push(
+        EntrySpec::ro("learned_table_cells", 0u32)
+            .doc("operating-point cells of the learned table holding values"),
+    );
+    b.record(at(DIAGNOSIS), format!("axis{i}_diagnosis"), axis, diagnosis)
+}
+
+/// Symptoms as the `symptoms` entry encodes them: `+1` → 01, `-1` → 10, per parameter.
+pub fn symptom_bits(symptoms: &[i8; 6]) -> u16 {
+    symptoms
+        .iter()
+        .enumerate()
+        .map(|(k, s)| match s.signum() {
+            1 => 1u16 << (2 * k),
+            -1 => 2u16 << (2 * k),
+            _ => 0,
+        })
+        .sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn symptoms_take_two_bits_each() {
+        assert_eq!(symptom_bits(&[0; 6]), 0);
+        assert_eq!(symptom_bits(&[1, 0, 0, 0, 0, 0]), 0b01);
+        assert_eq!(symptom_bits(&[0, 1, -1, 1, 0, 0]), 0b01_10_01_00);
+        assert_eq!(symptom_bits(&[0, 0, 0, 0, 0, -1]), 0b10 << 10);
+    }
+}
