@@ -277,3 +277,72 @@ fn supervision_algorithms_do_not_allocate() {
     });
     assert_eq!(n, 0);
 }
+
+/// The shipped solenoid configuration with a learned table and a state file.
+fn solenoid_node() -> (actuatord::daemon::Config, actuatord::daemon::ControllerNode) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("config/solenoid.toml");
+    let text = std::fs::read_to_string(&path).expect("config")
+        + "[axis.learned_table]\nposition_edges_m = [0.0, 0.006, 0.012, 0.025]\n\
+           supply_voltage_edges_v = [18.0, 24.0, 32.0]\nlearn_interval_s = 0.01\n";
+    let config = actuatord::daemon::Config::from_toml(&text, &path).expect("valid");
+    let node = actuatord::daemon::ControllerNode::new(&config).expect("node");
+    (config, node)
+}
+
+#[test]
+fn the_learned_table_the_state_offer_and_a_prepared_reload_do_not_allocate() {
+    use actuatord::daemon::learned::{OperatingPointMemory, FRICTION_TABLE_PARAMS};
+    use actuatord::daemon::node::PreparedReload;
+    use actuatord::daemon::state::StateWriter;
+
+    let table = LearnedTable::new(LearnedTableConfig {
+        position_edges_m: vec![0.0, 0.005, 0.01],
+        load_edges_n: vec![0.0, 1.0],
+        supply_edges: vec![20.0, 30.0],
+        param_names: FRICTION_TABLE_PARAMS.map(String::from).to_vec(),
+        averaging_count: 10,
+        min_count: 2,
+    })
+    .expect("valid");
+    let mut memory = OperatingPointMemory::new(table, 3);
+    let mut friction = AdaptiveFriction::new(AdaptiveFrictionConfig {
+        period_s: 0.0025,
+        model_time_constant_s: 0.03,
+        adaptation_gain_per_m_s: 2000.0,
+        max_compensation: 0.4,
+        initial_pos: 0.1,
+        initial_neg: 0.1,
+        error_deadband_m: 3e-6,
+        model_deadband_m: 1e-5,
+        settled_band_m: 2e-5,
+    })
+    .expect("valid");
+    let n = count(|k| {
+        let w = if (k / 500) % 2 == 0 { 0.003 } else { 0.008 };
+        friction.step(w, signal(k));
+        let op = OperatingPoint {
+            position_m: signal(k),
+            load_n: 0.0,
+            supply: 24.0,
+        };
+        memory.step(&op, &mut friction);
+    });
+    assert_eq!(n, 0);
+    assert!(memory.table().populated_cells() > 0, "it learned");
+
+    let (config, mut node) = solenoid_node();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (sink, writer) = StateWriter::spawn(&dir.path().join("s.toml"), &node, 1).expect("spawn");
+    let n = count(|_| sink.offer(&node));
+    assert_eq!(n, 0);
+    drop(sink);
+    assert!(writer.finish().writes >= 1);
+
+    let mut changed = config.clone();
+    changed.axis[0].limits.following_error_m = Some(0.004);
+    let prepared = Box::new(PreparedReload::build(changed).expect("valid"));
+    let before = allocations();
+    let replaced = node.apply_reload(prepared, 1.0, &mut |_| {});
+    assert_eq!(allocations() - before, 0);
+    drop(replaced);
+}

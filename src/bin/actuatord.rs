@@ -2,7 +2,7 @@
 
 use actuatord::bus::BusError;
 use actuatord::bus::SocketCanBus;
-use actuatord::daemon::node::NodeCounters;
+use actuatord::daemon::node::{NodeCounters, PreparedReload};
 use actuatord::daemon::notify::{watchdog_interval, Notifier};
 use actuatord::daemon::state::{self, StateWriter};
 use actuatord::daemon::{
@@ -71,7 +71,9 @@ struct BusCycle {
     iface: String,
     thread: std::thread::JoinHandle<(Result<CycleReport, BusError>, NodeCounters)>,
     recorder: Recorder,
-    reload: std::sync::mpsc::SyncSender<Box<Config>>,
+    reload: std::sync::mpsc::SyncSender<Box<PreparedReload>>,
+    /// What a reload replaced, handed back by the cycle to be dropped here.
+    retired: std::sync::mpsc::Receiver<Box<PreparedReload>>,
     progress: Arc<AtomicU64>,
     state: Option<StateWriter>,
 }
@@ -150,7 +152,8 @@ fn start_bus(
         record_frames: record.is_some() && config.record.can_frames,
     };
     // SIGHUP hands a new, validated configuration to the cycle, which applies it at a boundary.
-    let (reload, reload_rx) = std::sync::mpsc::sync_channel::<Box<Config>>(1);
+    let (reload, reload_rx) = std::sync::mpsc::sync_channel::<Box<PreparedReload>>(1);
+    let (retired_tx, retired) = std::sync::mpsc::sync_channel::<Box<PreparedReload>>(2);
     let progress = Arc::new(AtomicU64::new(0));
     let cycle_stop = stop.clone();
     let cycle_progress = progress.clone();
@@ -167,6 +170,7 @@ fn start_bus(
                 &sink,
                 CycleServices {
                     reload: Some(reload_rx),
+                    retired: Some(retired_tx),
                     state: state_sink,
                 },
             );
@@ -179,6 +183,7 @@ fn start_bus(
         thread,
         recorder,
         reload,
+        retired,
         progress,
         state: state_writer,
     })
@@ -314,7 +319,11 @@ fn run(args: Args) -> anyhow::Result<()> {
                 _ = ended_rx.recv() => break,
                 _ = hup.recv() => {
                     for c in &cycles {
-                        match load_config(&c.config_path, args.iface.as_deref()) {
+                        // What earlier reloads replaced is freed here, not on the cycle thread.
+                        while c.retired.try_recv().is_ok() {}
+                        let prepared = load_config(&c.config_path, args.iface.as_deref())
+                            .and_then(|new| PreparedReload::build(new).map_err(|e| anyhow::anyhow!("{}: {e}", c.config_path.display())));
+                        match prepared {
                             Ok(new) => match c.reload.try_send(Box::new(new)) {
                                 Ok(()) => tracing::info!("SIGHUP: {} read, taking effect at the next cycle", c.config_path.display()),
                                 Err(_) => tracing::warn!("SIGHUP: a reload of {} is still pending; this one is ignored", c.config_path.display()),

@@ -1,15 +1,14 @@
 //! The fixed-rate cycle: sleep to the release time, SYNC, gather sensor frames until the sensor
 //! deadline, control, send. Runs on its own thread; never touches disk or takes a shared lock.
 
-use super::config::Config;
-use super::node::{ControllerNode, CycleTiming};
+use super::node::{ControllerNode, CycleTiming, PreparedReload};
 use super::record::{Event, Record};
 use super::recorder::RecordSink;
 use super::rt;
 use super::state::StateSink;
 use crate::bus::{Bus, BusError, BusEvent, Frame};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::mpsc::Receiver;
+use std::sync::mpsc::{Receiver, SyncSender};
 use std::time::{Duration, Instant};
 
 /// Frames handled before SYNC per cycle: about a period's worth of a saturated 1 Mbit/s bus at
@@ -51,7 +50,8 @@ pub struct CycleRunner<'a> {
     sensor_wait: Duration,
     last_latency_s: f64,
     record_frames: bool,
-    reload: Option<Receiver<Box<Config>>>,
+    reload: Option<Receiver<Box<PreparedReload>>>,
+    retired: Option<SyncSender<Box<PreparedReload>>>,
 }
 
 impl<'a> CycleRunner<'a> {
@@ -75,12 +75,19 @@ impl<'a> CycleRunner<'a> {
             last_latency_s: 0.0,
             record_frames: false,
             reload: None,
+            retired: None,
         }
     }
 
-    /// New configurations (SIGHUP) arrive here; each takes effect at the next cycle boundary.
-    pub fn reload_from(mut self, rx: Option<Receiver<Box<Config>>>) -> Self {
+    /// New configurations (SIGHUP), built off this thread, arrive on `rx`; each takes effect at
+    /// the next cycle boundary, and what it replaced goes back on `retired` to be dropped there.
+    pub fn reload_from(
+        mut self,
+        rx: Option<Receiver<Box<PreparedReload>>>,
+        retired: Option<SyncSender<Box<PreparedReload>>>,
+    ) -> Self {
         self.reload = rx;
+        self.retired = retired;
         self
     }
 
@@ -122,8 +129,12 @@ impl<'a> CycleRunner<'a> {
         let t_s = (k * self.period_ns) as f64 * 1e-9;
         let sink = self.sink;
         let mut record = |r: Record| sink.push(r);
-        if let Some(config) = self.reload.as_ref().and_then(|rx| rx.try_recv().ok()) {
-            self.node.reload(*config, t_s, &mut record);
+        if let Some(prepared) = self.reload.as_ref().and_then(|rx| rx.try_recv().ok()) {
+            let replaced = self.node.apply_reload(prepared, t_s, &mut record);
+            if let Some(tx) = &self.retired {
+                // With nobody to take it, it is dropped here: a rare free, not a blocked cycle.
+                let _ = tx.try_send(replaced);
+            }
         }
 
         // Whatever is queued now arrived before this cycle's SYNC: handle it (setpoints, NMT,
@@ -235,8 +246,10 @@ pub fn run_cycle(
 /// What the daemon adds around the cycle: new configurations (SIGHUP) and the state writer.
 #[derive(Default)]
 pub struct CycleServices {
-    /// New configurations, each taken at the next cycle boundary.
-    pub reload: Option<Receiver<Box<Config>>>,
+    /// New configurations, built off the cycle thread, each taken at the next cycle boundary.
+    pub reload: Option<Receiver<Box<PreparedReload>>>,
+    /// What a reload replaced goes back here, to be dropped off the cycle thread.
+    pub retired: Option<SyncSender<Box<PreparedReload>>>,
     /// What the axes learned is offered to it every so many cycles, and once at the end.
     pub state: Option<StateSink>,
 }
@@ -251,7 +264,11 @@ pub fn run_cycle_with(
     sink: &RecordSink,
     services: CycleServices,
 ) -> Result<CycleReport, BusError> {
-    let CycleServices { reload, state } = services;
+    let CycleServices {
+        reload,
+        retired,
+        state,
+    } = services;
     let realtime =
         settings.realtime_priority > 0 && rt::set_fifo_priority(settings.realtime_priority).is_ok();
     let memory_locked = settings.lock_memory && rt::lock_memory().is_ok();
@@ -273,7 +290,7 @@ pub fn run_cycle_with(
         settings.sensor_deadline_s,
     )
     .record_frames(settings.record_frames)
-    .reload_from(reload);
+    .reload_from(reload, retired);
     let period_ns = runner.period_ns();
     let mut k: u64 = 0;
     let mut outcome = runner.boot();

@@ -135,6 +135,35 @@ pub struct ControllerNode {
     pending_safe: bool,
 }
 
+/// A configuration with its dictionary and axes built, ready to be swapped in at a cycle
+/// boundary; after [`ControllerNode::apply_reload`] it holds what was replaced.
+pub struct PreparedReload {
+    config: Config,
+    od: ObjectDictionary,
+    live: LiveObjects,
+    axes: Vec<Axis>,
+}
+
+impl PreparedReload {
+    /// Build everything a reload needs (this allocates: not on the cycle thread).
+    pub fn build(config: Config) -> Result<Self, String> {
+        let od = dictionary::build(&config).map_err(|e| e.to_string())?;
+        let axes = config
+            .axis
+            .iter()
+            .map(|a| Axis::new(a, config.cycle.period_s))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| e.to_string())?;
+        let live = LiveObjects::new(&od, axes.len());
+        Ok(Self {
+            config,
+            od,
+            live,
+            axes,
+        })
+    }
+}
+
 /// Why the controller node cannot be built from a configuration.
 #[derive(Debug, thiserror::Error)]
 pub enum NodeError {
@@ -732,21 +761,31 @@ impl ControllerNode {
 
     /// Take a new configuration at this cycle boundary (SIGHUP). Only parameters may change:
     /// node ids, axes, commands, period and bus stay; a structural change is refused whole.
+    /// Builds everything here; the daemon builds it off the cycle thread instead
+    /// ([`PreparedReload::build`], then [`ControllerNode::apply_reload`]).
     pub fn reload(&mut self, new: Config, now_s: f64, record: &mut dyn FnMut(Record)) {
-        match self.try_reload(new) {
-            Ok(axes_rebuilt) => record(Record::Event(Event::Reloaded {
-                t_s: now_s,
-                axes_rebuilt,
-            })),
+        match PreparedReload::build(new) {
+            Ok(prepared) => {
+                self.apply_reload(Box::new(prepared), now_s, record);
+            }
             Err(reason) => record(Record::Event(Event::ReloadRefused {
                 t_s: now_s,
-                reason: reason.into(),
+                reason: reason.as_str().into(),
             })),
         }
     }
 
-    fn try_reload(&mut self, new: Config) -> Result<u32, String> {
-        let old = &self.config;
+    /// Swap in a configuration built off the cycle thread. Axes whose configuration changed
+    /// take over from the ones they replace (setpoint, command, what they learned); the rest
+    /// keep running untouched. Allocation-free: what was replaced comes back in the returned
+    /// box, to be dropped off the cycle thread.
+    pub fn apply_reload(
+        &mut self,
+        mut prepared: Box<PreparedReload>,
+        now_s: f64,
+        record: &mut dyn FnMut(Record),
+    ) -> Box<PreparedReload> {
+        let (old, new) = (&self.config, &prepared.config);
         let same_axes =
             old.axis.len() == new.axis.len()
                 && old.axis.iter().zip(&new.axis).all(|(a, b)| {
@@ -756,30 +795,33 @@ impl ControllerNode {
             || old.bus != new.bus
             || old.cycle.period_s != new.cycle.period_s
             || !same_axes
+            || prepared.axes.len() != self.axes.len()
         {
-            return Err(
-                "bus, node ids, axes, commands or the period changed: that needs a restart".into(),
-            );
+            record(Record::Event(Event::ReloadRefused {
+                t_s: now_s,
+                reason: "bus, node ids, axes, commands or the period changed: that needs a restart"
+                    .into(),
+            }));
+            return prepared;
         }
-        let od = dictionary::build(&new).map_err(|e| e.to_string())?;
-        let mut rebuilt = Vec::new();
-        for (i, (a, b)) in old.axis.iter().zip(&new.axis).enumerate() {
-            if a != b {
-                let mut axis = Axis::new(b, self.period_s).map_err(|e| e.to_string())?;
-                axis.continue_from(&self.axes[i]);
-                rebuilt.push((i, axis));
+        let mut rebuilt = 0;
+        for i in 0..self.axes.len() {
+            if self.config.axis[i] != prepared.config.axis[i] {
+                std::mem::swap(&mut self.axes[i], &mut prepared.axes[i]);
+                self.axes[i].continue_from(&prepared.axes[i]);
+                rebuilt += 1;
             }
         }
-        let count = rebuilt.len() as u32;
-        for (i, axis) in rebuilt {
-            self.axes[i] = axis;
-        }
-        self.heartbeat_every = cycles(new.node.heartbeat_period_s, self.period_s);
-        self.status_every = cycles(new.node.status_period_s, self.period_s);
-        self.live = LiveObjects::new(&od, self.axes.len());
-        self.od = od;
-        self.config = new;
-        Ok(count)
+        self.heartbeat_every = cycles(prepared.config.node.heartbeat_period_s, self.period_s);
+        self.status_every = cycles(prepared.config.node.status_period_s, self.period_s);
+        std::mem::swap(&mut self.live, &mut prepared.live);
+        std::mem::swap(&mut self.od, &mut prepared.od);
+        std::mem::swap(&mut self.config, &mut prepared.config);
+        record(Record::Event(Event::Reloaded {
+            t_s: now_s,
+            axes_rebuilt: rebuilt,
+        }));
+        prepared
     }
 
     /// The object dictionary, as SDO clients see it.

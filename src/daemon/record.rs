@@ -155,8 +155,8 @@ pub struct ReasonText {
     len: u8,
 }
 
-impl From<String> for ReasonText {
-    fn from(text: String) -> Self {
+impl From<&str> for ReasonText {
+    fn from(text: &str) -> Self {
         let mut end = text.len().min(120);
         while !text.is_char_boundary(end) {
             end -= 1;
@@ -167,6 +167,12 @@ impl From<String> for ReasonText {
             bytes,
             len: end as u8,
         }
+    }
+}
+
+impl From<String> for ReasonText {
+    fn from(text: String) -> Self {
+        Self::from(text.as_str())
     }
 }
 
