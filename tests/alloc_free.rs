@@ -251,9 +251,15 @@ fn supervision_algorithms_do_not_allocate() {
     })
     .expect("ok");
     let mut machine = FaultMachine::new(&FaultMachineConfig::default()).expect("ok");
-    let nominal = PhysicalParameters {
+    let nominal = Nominal::exact(PhysicalParameters {
         values: [1.0; PHYSICAL_PARAMS],
+    });
+    let thresholds = SymptomThresholds {
+        sigmas: 3.0,
+        relative_floor: [0.1; PHYSICAL_PARAMS],
     };
+    let table = FaultSymptomTable::shipped().expect("shipped table");
+    let mut learner = NominalLearner::default();
     let n = count(|k| {
         let y = signal(k);
         std::hint::black_box(obs.step(y, 6.0 + 1000.0 * (y - 0.005)));
@@ -270,9 +276,11 @@ fn supervision_algorithms_do_not_allocate() {
             present.insert(SupervisedFault::EstimatorImplausible);
         }
         std::hint::black_box(machine.step(present));
-        if let Some(p) = est.physical() {
-            let s = symptoms(&p, &nominal, &[0.1; PHYSICAL_PARAMS]);
-            std::hint::black_box(diagnose(&s, 1));
+        if let Some(p) = est.physical_with_deviation() {
+            learner.add(&p);
+            std::hint::black_box(learner.nominal());
+            let s = symptoms(&p, &nominal, &thresholds);
+            std::hint::black_box(diagnose(&table, &s, 1));
         }
     });
     assert_eq!(n, 0);

@@ -1,10 +1,20 @@
 //! The paper bench on the simulated plants: the figures point the way the paper's do.
 
+use actuatord::bench::fault_table::{
+    derive, FaultTableOptions, Simulation, CHECK_TOLERANCE, REGENERATE,
+};
 use actuatord::bench::paper::{
     diagnose_paper_faults, observer_friction_rise, pneumatic_settling, solenoid_small_step_offset,
     PneumaticStrategy,
 };
 use actuatord::bench::{run_paper_bench, PaperTable};
+use actuatord::physics::FaultKind;
+use actuatord::supervise::fault_table::{
+    FaultTableFile, SHIPPED_FAULT_TABLE, SHIPPED_FAULT_TABLE_PATH,
+};
+use actuatord::supervise::{
+    diagnose, symptoms, DiagnosedFault, FaultSymptomTable, Symptom, SymptomThresholds,
+};
 
 #[test]
 fn adaptive_friction_compensation_lowers_the_small_step_offset() {
@@ -38,8 +48,91 @@ fn scheduling_keeps_the_pneumatic_settling_time_across_supply_pressures() {
 
 #[test]
 fn each_paper_fault_is_diagnosed_from_its_symptoms() {
-    for (expected, d) in diagnose_paper_faults().expect("runs") {
-        assert_eq!(d.fault, Some(expected), "{d:?}");
+    for r in diagnose_paper_faults().expect("runs") {
+        assert_eq!(r.mean.fault, Some(r.expected), "{r:?}");
+        // Most single windows tell it too, on noise independent of the table's runs.
+        assert!(
+            r.windows >= 4 && 4 * r.correct_windows >= 3 * r.windows,
+            "{r:?}"
+        );
+    }
+}
+
+#[test]
+fn the_committed_fault_table_is_what_the_physics_gives() {
+    let derived = derive(&FaultTableOptions::default()).expect("derives");
+    let committed = FaultTableFile::from_toml(SHIPPED_FAULT_TABLE, SHIPPED_FAULT_TABLE_PATH)
+        .expect("committed table parses");
+    let diff = derived.file.differences(&committed, CHECK_TOLERANCE);
+    assert!(
+        diff.is_empty(),
+        "regenerate with `{REGENERATE}`:\n{}",
+        diff.join("\n")
+    );
+}
+
+#[test]
+fn the_derived_patterns_are_distinct_and_merges_are_named() {
+    let derived = derive(&FaultTableOptions::default()).expect("derives");
+    let table = derived.file.table("derived").expect("valid table");
+    let rows = table.rows();
+    for (i, a) in rows.iter().enumerate() {
+        for b in &rows[i + 1..] {
+            assert_ne!(a.symptoms, b.symptoms, "{a:?} {b:?}");
+        }
+    }
+    // Every simulated fault is accounted for: a row, a merge into one, or a reason.
+    for o in &derived.outcomes {
+        let name = o.entry.fault.to_string();
+        let f = &derived.file;
+        let placed = f.fault.iter().any(|r| r.simulated == name) as usize
+            + f.fault
+                .iter()
+                .flat_map(|r| &r.same_pattern)
+                .filter(|m| m.simulated == name && !m.note.is_empty())
+                .count()
+            + f.not_diagnosed
+                .iter()
+                .filter(|n| n.simulated == name && !n.reason.is_empty())
+                .count();
+        assert_eq!(placed, 1, "{name}: {}", derived.summary());
+    }
+}
+
+#[test]
+fn variance_based_symptoms_flag_a_fault_and_not_a_healthy_run() {
+    let sim = Simulation::new(&FaultTableOptions {
+        windows: 6,
+        ..FaultTableOptions::default()
+    })
+    .expect("set up");
+    // Nominal from the plant file's seed; the runs judged use another seed.
+    let nominal = sim.run(None, 1).expect("runs").nominal().expect("learned");
+    // The configured test, and the variance alone (no relative floor).
+    let configured = sim.thresholds();
+    let variance_only = SymptomThresholds {
+        relative_floor: [0.0; 6],
+        ..configured
+    };
+    let table = FaultSymptomTable::shipped().expect("shipped table");
+    let healthy = sim.run(None, 7).expect("runs");
+    let spring = sim.run(Some(FaultKind::Spring(0.73)), 7).expect("runs");
+    assert_eq!(healthy.windows.len(), 6);
+    assert_eq!(spring.windows.len(), 6);
+    for thresholds in [configured, variance_only] {
+        for w in &healthy.windows {
+            let s = symptoms(w, &nominal, &thresholds);
+            assert_eq!(s, [Symptom::Zero; 6], "{thresholds:?}: {w:?}");
+        }
+        for w in &spring.windows {
+            let s = symptoms(w, &nominal, &thresholds);
+            let d = diagnose(&table, &s, sim.max_distance());
+            assert_eq!(
+                d.fault,
+                Some(DiagnosedFault::SpringStiffness),
+                "{thresholds:?}: {s:?} {w:?}"
+            );
+        }
     }
 }
 

@@ -11,6 +11,7 @@ use actuatord::daemon::node::CycleTiming;
 use actuatord::daemon::record::{CycleRecord, Record};
 use actuatord::daemon::ControllerNode;
 use actuatord::simnode::SimNode;
+use actuatord::supervise::fault_table::SHIPPED_FAULT_TABLE;
 use actuatord::supervise::{FaultState, SupervisedFault};
 use std::path::Path;
 
@@ -252,6 +253,61 @@ fn a_spring_drop_is_diagnosed_as_f2() {
     let d = rig.last_diagnosis();
     assert!(d.confidence > 0.6, "{d:?}");
     assert!(rig.emcys().iter().any(|(_, e)| e.error_code == 0xFF12));
+}
+
+/// The built-in table with the rows of F2 and F3 trading names.
+fn swapped_table() -> String {
+    let f2 = "code = \"F2\"\nname = \"spring_stiffness\"";
+    let f3 = "code = \"F3\"\nname = \"friction_increase\"";
+    assert!(SHIPPED_FAULT_TABLE.contains(f2) && SHIPPED_FAULT_TABLE.contains(f3));
+    SHIPPED_FAULT_TABLE
+        .replace(f2, "SWAP")
+        .replace(f3, f2)
+        .replace("SWAP", f3)
+}
+
+#[test]
+fn a_configured_fault_table_replaces_the_built_in_one() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("table.toml");
+    std::fs::write(&path, swapped_table()).expect("write");
+    let mut c = config("solenoid.toml", "");
+    tour(&mut c, 115.0);
+    c.axis[0]
+        .parameter_estimation
+        .as_mut()
+        .expect("configured")
+        .fault_table = Some(path);
+    let mut rig = Rig::new(&c, "solenoid.toml", &["spring_x0.73@100s"]);
+    rig.run_until(115.0);
+    // The spring drop's symptoms, named by the configured table.
+    assert_eq!(
+        rig.last_fault_state().diagnosed_fault,
+        Some(SupervisedFault::FrictionIncrease)
+    );
+}
+
+#[test]
+fn a_broken_fault_table_is_refused_naming_the_file_and_the_key() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let broken = swapped_table().replacen("symptoms = [\"0\", ", "symptoms = [\"?\", ", 1);
+    std::fs::write(dir.path().join("table.toml"), broken).expect("write");
+    let text = std::fs::read_to_string(root().join("config/solenoid.toml")).expect("config");
+    let text = text.replacen(
+        "\nmax_distance = 2\n",
+        "\nmax_distance = 2\nfault_table = \"table.toml\"\n",
+        1,
+    );
+    let config_path = dir.path().join("axis.toml");
+    let e = Config::from_toml(&text, &config_path)
+        .expect_err("broken table")
+        .to_string();
+    let table_path = dir.path().join("table.toml");
+    assert!(
+        e.contains("parameter_estimation.fault_table")
+            && e.contains(&format!("{}: fault[0].symptoms[0]", table_path.display())),
+        "{e}"
+    );
 }
 
 #[test]

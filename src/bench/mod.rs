@@ -3,8 +3,11 @@
 //!
 //! - [`paper`]: closed-loop simulations of the physics plants with the intelligent-actuator
 //!   algorithms, in lock-step at the papers' sampling times (no bus), beside the papers' figures.
+//! - [`fault_table`]: the fault-symptom table of the parameter diagnosis, derived from
+//!   simulations of the solenoid with each fault (`actuator bench fault-table`).
 //! - [`rt`]: how well the real-time cycle keeps time, against a naive baseline.
 
+pub mod fault_table;
 pub mod paper;
 pub mod rt;
 

@@ -162,6 +162,15 @@ enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+    /// Derive the fault-symptom table of the parameter diagnosis from the physics (the solenoid
+    /// healthy and with each fault) and write it; --check compares with the file instead.
+    FaultTable {
+        #[arg(long, default_value = "config/fault_symptoms.toml")]
+        out: PathBuf,
+        /// Regenerate and compare with --out; exit non-zero when they differ.
+        #[arg(long)]
+        check: bool,
+    },
     /// How the cycle keeps time: lateness histogram, deadline misses, latencies, compute per
     /// stage, against a naive tokio-interval loop doing the same work in the same run.
     Rt {
@@ -370,6 +379,15 @@ fn run(args: Args) -> anyhow::Result<()> {
             } else {
                 println!("{}", actuatord::bench::PaperTable(&rows));
             }
+            Ok(())
+        }
+        Command::Bench {
+            what: BenchCommand::FaultTable { out, check },
+        } => {
+            print!(
+                "{}",
+                actuatord::bench::fault_table::regenerate(&out, check)?
+            );
             Ok(())
         }
         Command::Bench {

@@ -19,9 +19,10 @@ use crate::control::{
 };
 use crate::supervise::{
     diagnose, symptoms, Band, DiagnosedFault, DisturbanceObserver, EstimatorHealth, FaultMachine,
-    FaultMachineOutput, FaultState, LimitSupervisor, Limits, ObserverOutput, ParameterEstimator,
-    PhysicalParameters, SupervisedFault, SupervisedFaults, SupervisionInput, SupervisionLevel,
-    SupervisionOutput, Symptom, PHYSICAL_PARAMS,
+    FaultMachineOutput, FaultState, FaultSymptomTable, LimitSupervisor, Limits, Nominal,
+    NominalLearner, ObserverOutput, ParameterEstimator, PhysicalParameters, SupervisedFault,
+    SupervisedFaults, SupervisionInput, SupervisionLevel, SupervisionOutput, Symptom,
+    SymptomThresholds, PHYSICAL_PARAMS,
 };
 
 /// What the axis has learned or runs with this cycle (the tuned-parameter frames).
@@ -175,15 +176,16 @@ impl AxisStep {
 }
 
 /// Windowed parameter estimation in operation: each window of moving samples is one short test;
-/// the first windows give the nominal parameters unless they are configured.
+/// the first windows give the nominal parameters (and the spread of a window's estimate) unless
+/// they are configured.
 struct Estimation {
     estimator: ParameterEstimator,
     window_updates: u64,
-    nominal: Option<PhysicalParameters>,
-    nominal_sum: [f64; PHYSICAL_PARAMS],
-    nominal_count: u32,
+    nominal: Option<Nominal>,
+    learner: NominalLearner,
     nominal_windows: u32,
-    thresholds: [f64; PHYSICAL_PARAMS],
+    thresholds: SymptomThresholds,
+    table: FaultSymptomTable,
     max_distance: usize,
     confirm_windows: u32,
     candidate: Option<DiagnosedFault>,
@@ -201,26 +203,20 @@ impl Estimation {
         if self.estimator.updates() < self.window_updates {
             return;
         }
-        let p = self.estimator.physical();
+        let estimate = self.estimator.physical_with_deviation();
         self.estimator.reset();
         // A window whose polynomial has no physical reading tells nothing: skip it.
-        let Some(p) = p else { return };
-        self.last = Some(p);
+        let Some(estimate) = estimate else { return };
+        self.last = Some(estimate.p);
         let Some(nominal) = self.nominal else {
-            for (sum, v) in self.nominal_sum.iter_mut().zip(p.values) {
-                *sum += v;
-            }
-            self.nominal_count += 1;
-            if self.nominal_count >= self.nominal_windows {
-                let n = f64::from(self.nominal_count);
-                self.nominal = Some(PhysicalParameters {
-                    values: self.nominal_sum.map(|v| v / n),
-                });
+            self.learner.add(&estimate);
+            if self.learner.count() >= self.nominal_windows {
+                self.nominal = self.learner.nominal();
             }
             return;
         };
-        self.symptoms = symptoms(&p, &nominal, &self.thresholds);
-        let d = diagnose(&self.symptoms, self.max_distance);
+        self.symptoms = symptoms(&estimate, &nominal, &self.thresholds);
+        let d = diagnose(&self.table, &self.symptoms, self.max_distance);
         if d.fault == self.candidate {
             self.candidate_windows = self.candidate_windows.saturating_add(1);
         } else {
@@ -236,12 +232,15 @@ impl Estimation {
     }
 }
 
-fn supervised(fault: DiagnosedFault) -> SupervisedFault {
+/// The supervised fault of a diagnosis; `None` for a fault the fault machine has no entry for
+/// (its symptoms are still on the bus).
+fn supervised(fault: DiagnosedFault) -> Option<SupervisedFault> {
     match fault {
-        DiagnosedFault::SpringPretension => SupervisedFault::SpringPretension,
-        DiagnosedFault::SpringStiffness => SupervisedFault::SpringStiffness,
-        DiagnosedFault::FrictionIncrease => SupervisedFault::FrictionIncrease,
-        DiagnosedFault::CurrentGain => SupervisedFault::CurrentGain,
+        DiagnosedFault::SpringPretension => Some(SupervisedFault::SpringPretension),
+        DiagnosedFault::SpringStiffness => Some(SupervisedFault::SpringStiffness),
+        DiagnosedFault::FrictionIncrease => Some(SupervisedFault::FrictionIncrease),
+        DiagnosedFault::CurrentGain => Some(SupervisedFault::CurrentGain),
+        DiagnosedFault::SensorOffset => None,
     }
 }
 
@@ -415,11 +414,15 @@ impl Axis {
             (Some(c), Some(p)) => Some(Estimation {
                 estimator: ParameterEstimator::new(c).map_err(unvalidated)?,
                 window_updates: p.window_updates,
-                nominal: p.nominal.map(|n| PhysicalParameters { values: n.values() }),
-                nominal_sum: [0.0; PHYSICAL_PARAMS],
-                nominal_count: 0,
+                nominal: p
+                    .nominal
+                    .map(|n| Nominal::exact(PhysicalParameters { values: n.values() })),
+                learner: NominalLearner::default(),
                 nominal_windows: p.nominal_windows.max(1),
-                thresholds: p.relative_thresholds,
+                thresholds: p.symptom_thresholds(),
+                table: p
+                    .load_fault_table()
+                    .map_err(|e| ControllerError::File(e.to_string()))?,
                 max_distance: p.max_distance,
                 confirm_windows: p.confirm_windows.max(1),
                 candidate: None,
@@ -713,8 +716,13 @@ impl Axis {
         if self.observer_out.friction_rise {
             present.insert(SupervisedFault::ObserverFriction);
         }
-        if let Some(f) = self.estimation.as_ref().and_then(|e| e.present) {
-            present.insert(supervised(f));
+        if let Some(f) = self
+            .estimation
+            .as_ref()
+            .and_then(|e| e.present)
+            .and_then(supervised)
+        {
+            present.insert(f);
         }
         let p = &self.pneumatic_step;
         if p.health_down == EstimatorHealth::Implausible

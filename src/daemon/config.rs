@@ -7,8 +7,9 @@ use crate::control::{
     PneumaticAdaptive, PneumaticAdaptiveConfig, SchedulePoint,
 };
 use crate::supervise::{
-    DisturbanceObserver, EstimatorSupervisorConfig, FaultMachineConfig, ObserverConfig,
-    ParameterEstimator, ParameterEstimatorConfig, Reaction, SupervisedFault,
+    DisturbanceObserver, EstimatorSupervisorConfig, FaultMachineConfig, FaultSymptomTable,
+    FaultTableError, ObserverConfig, ParameterEstimator, ParameterEstimatorConfig, Reaction,
+    SupervisedFault, SymptomThresholds,
 };
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -481,12 +482,38 @@ pub struct ParameterEstimationSection {
     /// Consecutive windows with the same diagnosis before it counts as present.
     #[serde(default = "one")]
     pub confirm_windows: u32,
-    /// Relative deviation for a symptom, per `[T_I, D, ω0, K_P, F_C, F_0]`; `inf` = not judged.
-    pub relative_thresholds: [f64; 6],
+    /// A deviation from the nominal beyond this many standard deviations is a symptom (the
+    /// deviation propagated from the estimator's covariance, or the spread of the windows that
+    /// gave the nominal values when that is larger).
+    pub symptom_sigmas: f64,
+    /// Relative floor per `[T_I, D, ω0, K_P, F_C, F_0]`: deviations within `floor · |p_nom|`
+    /// are never symptoms; `inf` = not judged.
+    pub relative_floor: [f64; 6],
     /// Largest number of differing symptoms for the nearest table row to count.
     pub max_distance: usize,
+    /// Fault-symptom table file (relative to this file); absent: the table built into the
+    /// program, `config/fault_symptoms.toml` of its sources.
+    pub fault_table: Option<PathBuf>,
     /// Configured nominal `p`; absent: learned from the first windows.
     pub nominal: Option<NominalParameters>,
+}
+
+impl ParameterEstimationSection {
+    /// The symptom test's settings.
+    pub fn symptom_thresholds(&self) -> SymptomThresholds {
+        SymptomThresholds {
+            sigmas: self.symptom_sigmas,
+            relative_floor: self.relative_floor,
+        }
+    }
+
+    /// The configured fault-symptom table, or the built-in one.
+    pub fn load_fault_table(&self) -> Result<FaultSymptomTable, FaultTableError> {
+        match &self.fault_table {
+            Some(path) => FaultSymptomTable::load(path),
+            None => FaultSymptomTable::shipped(),
+        }
+    }
 }
 
 fn one() -> u32 {
@@ -584,6 +611,12 @@ impl Config {
         }
         for axis in config.axis.iter_mut() {
             if let Some(f) = axis.controller.state_space_file.as_mut() {
+                if f.is_relative() {
+                    *f = folder.join(&*f);
+                }
+            }
+            let table = axis.parameter_estimation.as_mut();
+            if let Some(f) = table.and_then(|p| p.fault_table.as_mut()) {
                 if f.is_relative() {
                     *f = folder.join(&*f);
                 }
@@ -1310,15 +1343,27 @@ impl AxisConfig {
                     ));
                 }
             }
+            if !(p.symptom_sigmas.is_finite() && p.symptom_sigmas > 0.0) {
+                return Err((
+                    "parameter_estimation.symptom_sigmas".to_string(),
+                    format!("must be finite and > 0, got {}", p.symptom_sigmas),
+                ));
+            }
             if let Some((i, t)) = p
-                .relative_thresholds
+                .relative_floor
                 .iter()
                 .enumerate()
-                .find(|(_, t)| t.is_nan() || **t <= 0.0)
+                .find(|(_, t)| t.is_nan() || **t < 0.0)
             {
                 return Err((
-                    "parameter_estimation.relative_thresholds".to_string(),
-                    format!("must be > 0 (inf: not judged), value {} is {t}", i + 1),
+                    "parameter_estimation.relative_floor".to_string(),
+                    format!("must be >= 0 (inf: not judged), value {} is {t}", i + 1),
+                ));
+            }
+            if let Err(e) = p.load_fault_table() {
+                return Err((
+                    "parameter_estimation.fault_table".to_string(),
+                    e.to_string(),
                 ));
             }
             if let Some(n) = &p.nominal {

@@ -7,6 +7,7 @@ pub use fault::{FaultFlags, FaultKind, FaultState};
 pub use limits::{Band, LimitSupervisor, Limits, SupervisionInput, SupervisionOutput};
 mod estimator_supervisor;
 mod fault_machine;
+pub mod fault_table;
 mod observer;
 mod param_diagnosis;
 
@@ -17,9 +18,10 @@ pub use fault_machine::{
     FaultMachine, FaultMachineConfig, FaultMachineOutput, FaultPolicy, Reaction, SupervisedFault,
     SupervisedFaults, SupervisionLevel,
 };
+pub use fault_table::{FaultSymptomTable, FaultTableError, TableRow};
 pub use observer::{Deviation, DisturbanceObserver, ObserverConfig, ObserverOutput};
 pub use param_diagnosis::{
-    diagnose, physical_from_theta, symptoms, DiagnosedFault, Diagnosis, ParameterEstimator,
-    ParameterEstimatorConfig, PhysicalParameters, Symptom, FAULT_SYMPTOM_TABLE, PHYSICAL_NAMES,
-    PHYSICAL_PARAMS,
+    diagnose, physical_from_theta, symptom_bound, symptoms, DiagnosedFault, Diagnosis, Nominal,
+    NominalLearner, ParameterEstimator, ParameterEstimatorConfig, PhysicalEstimate,
+    PhysicalParameters, Symptom, SymptomThresholds, PHYSICAL_NAMES, PHYSICAL_PARAMS,
 };
