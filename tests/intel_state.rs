@@ -93,7 +93,14 @@ fn what_the_axis_learned_is_in_the_dictionary_and_survives_a_parameter_write() {
     assert_eq!(real(od, "friction_compensation_pos"), pos);
     assert_eq!(real(od, "friction_compensation_neg"), neg);
     let nominal = learned.nominal.expect("nominal learned in 40 s");
-    assert_eq!(real(od, "nominal_natural_frequency_rad_per_s"), nominal[2]);
+    assert_eq!(
+        real(od, "nominal_natural_frequency_rad_per_s"),
+        nominal.p.values[2]
+    );
+    assert!(
+        nominal.window_spread.iter().all(|s| *s > 0.0),
+        "{nominal:?}"
+    );
     assert!(real(od, "estimate_natural_frequency_rad_per_s").is_finite());
     let bands = learned
         .observer_bands

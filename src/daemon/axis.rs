@@ -563,11 +563,7 @@ impl Axis {
                 .as_ref()
                 .map(AdaptiveFriction::compensation_values),
             observer_bands: self.observer.as_ref().and_then(DisturbanceObserver::bands),
-            nominal: self
-                .estimation
-                .as_ref()
-                .and_then(|e| e.nominal)
-                .map(|n| n.values),
+            nominal: self.estimation.as_ref().and_then(|e| e.nominal),
         }
     }
 
@@ -583,9 +579,14 @@ impl Axis {
         if let (Some(o), Some(bands)) = (self.observer.as_mut(), learned.observer_bands) {
             o.restore_bands(bands);
         }
-        if let (Some(e), Some(values)) = (self.estimation.as_mut(), learned.nominal) {
-            if e.nominal.is_none() && values.iter().all(|v| v.is_finite()) {
-                e.nominal = Some(PhysicalParameters { values });
+        if let (Some(e), Some(nominal)) = (self.estimation.as_mut(), learned.nominal) {
+            let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+            if e.nominal.is_none()
+                && finite(&nominal.p.values)
+                && finite(&nominal.deviation)
+                && finite(&nominal.window_spread)
+            {
+                e.nominal = Some(nominal);
             }
         }
     }

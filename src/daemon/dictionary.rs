@@ -92,6 +92,7 @@ fn intelligence_parameters(a: &AxisConfig) -> IntelligenceParameters {
                 nominal_windows: e.nominal_windows,
                 confirm_windows: e.confirm_windows,
                 max_distance: e.max_distance.min(6) as u8,
+                symptom_sigmas: e.symptom_sigmas,
             }),
         schedule: a.schedule.as_ref().map(|s| {
             let (variable, supply) = s.variable();
@@ -290,6 +291,12 @@ fn apply_intelligence_write(
         "learn_samples" => a.observer.as_mut().ok_or_else(missing)?.learn_samples = count,
         "persistence_samples" => {
             a.observer.as_mut().ok_or_else(missing)?.persistence_samples = count
+        }
+        "symptom_sigmas" => {
+            a.parameter_estimation
+                .as_mut()
+                .ok_or_else(missing)?
+                .symptom_sigmas = number
         }
         "window_updates" | "nominal_windows" | "confirm_windows" | "max_distance" => {
             let e = a.parameter_estimation.as_mut().ok_or_else(missing)?;
@@ -506,7 +513,7 @@ impl LiveObjects {
         for (h, v) in h
             .nominal
             .iter()
-            .zip(learned.nominal.unwrap_or([f64::NAN; 6]))
+            .zip(learned.nominal.map_or([f64::NAN; 6], |n| n.p.values))
         {
             put(*h, Value::Real64(v));
         }

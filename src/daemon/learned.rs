@@ -5,7 +5,7 @@
 //! in the cycle. Both are allocation-free per cycle.
 
 use crate::control::{AdaptiveFriction, LearnedTable, OperatingPoint};
-use crate::supervise::PHYSICAL_PARAMS;
+use crate::supervise::Nominal;
 
 /// Names of the values a friction-compensating axis stores per operating point.
 pub const FRICTION_TABLE_PARAMS: [&str; 2] =
@@ -18,9 +18,9 @@ pub struct AxisLearned {
     pub friction_compensation: Option<(f64, f64)>,
     /// `[(low, high) of x4+, (low, high) of x4-]`, m.
     pub observer_bands: Option<[(f64, f64); 2]>,
-    /// Nominal `[T_I, D, ω0, K_P, F_C, F_0]` of the parameter-estimation diagnosis, learned from
-    /// the first healthy windows.
-    pub nominal: Option<[f64; PHYSICAL_PARAMS]>,
+    /// Nominal `[T_I, D, ω0, K_P, F_C, F_0]` of the parameter-estimation diagnosis with their
+    /// spreads, learned from the first healthy windows.
+    pub nominal: Option<Nominal>,
 }
 
 /// The learned table in the cycle: while the axis stays in one cell of the operating-point grid

@@ -14,6 +14,7 @@ use super::config::NominalParameters;
 use super::learned::AxisLearned;
 use super::node::ControllerNode;
 use crate::control::{LearnedTable, LearnedTableState};
+use crate::supervise::{Nominal, PhysicalParameters, PHYSICAL_PARAMS};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -62,8 +63,12 @@ pub struct AxisState {
     pub friction_compensation_neg: Option<f64>,
     /// Learned nominal bands of the observer's `x4` per direction.
     pub observer_bands: Option<ObserverBandsState>,
-    /// Nominal physical parameters of the parameter-estimation diagnosis.
+    /// Nominal physical parameters of the parameter-estimation diagnosis, with the standard
+    /// deviation of each nominal value and the spread of single windows seen while learning
+    /// (in the order of `nominal`'s keys), which set the symptom thresholds.
     pub nominal: Option<NominalParameters>,
+    pub nominal_deviation: Option<[f64; PHYSICAL_PARAMS]>,
+    pub nominal_window_spread: Option<[f64; PHYSICAL_PARAMS]>,
     /// The learned table of tuned parameters by operating point.
     pub learned_table: Option<LearnedTableState>,
 }
@@ -90,14 +95,19 @@ impl AxisState {
                 x4_neg_low_m: n.0,
                 x4_neg_high_m: n.1,
             }),
-            nominal: l.nominal.map(|v| NominalParameters {
-                current_time_constant_s: v[0],
-                damping_ratio: v[1],
-                natural_frequency_rad_per_s: v[2],
-                static_gain_m_per_v: v[3],
-                coulomb_friction_n: v[4],
-                pretension_n: v[5],
+            nominal: l.nominal.map(|n| {
+                let v = n.p.values;
+                NominalParameters {
+                    current_time_constant_s: v[0],
+                    damping_ratio: v[1],
+                    natural_frequency_rad_per_s: v[2],
+                    static_gain_m_per_v: v[3],
+                    coulomb_friction_n: v[4],
+                    pretension_n: v[5],
+                }
             }),
+            nominal_deviation: l.nominal.map(|n| n.deviation),
+            nominal_window_spread: l.nominal.map(|n| n.window_spread),
             learned_table: table
                 .filter(|t| t.populated_cells() > 0)
                 .map(LearnedTable::to_state),
@@ -115,7 +125,12 @@ impl AxisState {
                     (b.x4_neg_low_m, b.x4_neg_high_m),
                 ]
             }),
-            nominal: self.nominal.map(|n| n.values()),
+            // Without the spreads (a hand-written file) the values count as exact.
+            nominal: self.nominal.map(|n| Nominal {
+                p: PhysicalParameters { values: n.values() },
+                deviation: self.nominal_deviation.unwrap_or([0.0; PHYSICAL_PARAMS]),
+                window_spread: self.nominal_window_spread.unwrap_or([0.0; PHYSICAL_PARAMS]),
+            }),
         }
     }
 }
@@ -488,7 +503,13 @@ mod tests {
         AxisLearned {
             friction_compensation: Some((0.21, 0.17)),
             observer_bands: Some([(-3e-4, -1e-4), (1e-4, 2.5e-4)]),
-            nominal: Some([0.0086, 1.4, 57.0, 0.001, 0.2, 1.5]),
+            nominal: Some(Nominal {
+                p: crate::supervise::PhysicalParameters {
+                    values: [0.0086, 1.4, 57.0, 0.001, 0.2, 1.5],
+                },
+                deviation: [1e-4, 0.01, 0.2, 1e-6, 0.02, 0.01],
+                window_spread: [3e-4, 0.02, 0.4, 2e-6, 0.03, 0.02],
+            }),
         }
     }
 

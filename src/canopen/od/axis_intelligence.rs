@@ -58,6 +58,7 @@ pub struct EstimationParameters {
     pub nominal_windows: u32,
     pub confirm_windows: u32,
     pub max_distance: u8,
+    pub symptom_sigmas: f64,
 }
 
 /// `[axis.schedule]`: supply points and the scheduled values at each.
@@ -227,6 +228,9 @@ pub fn intelligence_objects(
                 EntrySpec::rw_preop("confirm_windows", e.confirm_windows)
                     .range(Some(Value::Unsigned32(1)), None)
                     .doc("windows in a row that must agree on a fault"),
+                EntrySpec::rw_preop("symptom_sigmas", e.symptom_sigmas)
+                    .between(POSITIVE_MIN, 100.0)
+                    .doc("a symptom needs |p - p_nom| above this many standard deviations"),
                 EntrySpec::rw_preop("max_distance", e.max_distance)
                     .range(None, Some(Value::Unsigned8(6)))
                     .doc("most symptoms a diagnosis may differ from its table row"),
