@@ -4,11 +4,23 @@
 //! direction; the compensation applied is `U_comp(k) = U_comp± sign(e_w(k))`.
 //!
 //! - reference model, first order: `y_M(k) = a y_M(k-1) + (1 - a) w(k)`, `a = exp(-T_0 / T_M)`;
-//! - friction controller, integral, per direction of the control error:
-//!   `U_comp+(k) = U_comp+(k-1) - γ T_0 e_M(k)` while `e_w > e_db`,
-//!   `U_comp-(k) = U_comp-(k-1) + γ T_0 e_M(k)` while `e_w < -e_db`, both held in `[0, U_max]`;
+//! - friction controller, integral, for the direction `d = sign(w - y_M)` in which the model
+//!   approached the present set-point (held once it has settled):
+//!   `U_comp+(k) = U_comp+(k-1) - γ T_0 e_M(k)` while `d = +`,
+//!   `U_comp-(k) = U_comp-(k-1) + γ T_0 e_M(k)` while `d = -`, both held in `[0, U_max]`;
 //!   adaptation only once the model has settled (`|w - y_M| < s_M`) and `|e_M| > e_M,db`, so the
-//!   linear transient and sensor noise are not taken for friction.
+//!   linear transient and sensor noise are not taken for friction, and not for the rest of a
+//!   set-point whose transient already carried the position past it by more than `e_M,db`.
+//!
+//! The law is two-sided. A position stuck short of the settled model (`d e_M < 0`) says the
+//! compensation of the approach direction is too small and raises it; a position pushed past the
+//! set-point after the model settled (`d e_M > 0`) says that compensation carried it over and
+//! lowers it. Choosing the adapted direction by `sign(e_w)` instead would charge an overshoot to
+//! the opposite compensation, where it reads as "too small" again: both values could then only
+//! grow, and noise and the loop's small limit cycles ratchet them up to `U_max`, which the
+//! supervision then reads as a friction rise. An overshoot the linear transient made before the
+//! model settled (the loop's own dynamics, stuck there by friction) says nothing about the
+//! compensation, hence the freeze for that set-point.
 //!
 //! External loads look exactly like friction to this law: a load that pulls against the `+`
 //! direction raises `U_comp+` like friction would, and when the load goes away (or reverses) the
@@ -59,6 +71,13 @@ pub struct AdaptiveFriction {
     config: AdaptiveFrictionConfig,
     a: f64,
     y_model: Option<f64>,
+    /// `d`: direction in which the model approached the present set-point: `+1`, `-1`, or `0`
+    /// before the first move.
+    approach: f64,
+    /// The set-point of the last step, to tell a new one.
+    last_setpoint: f64,
+    /// The transient of the present set-point carried the position past it: no adaptation.
+    transient_overshoot: bool,
     comp_pos: f64,
     comp_neg: f64,
 }
@@ -92,6 +111,9 @@ impl AdaptiveFriction {
         Ok(Self {
             a: (-c.period_s / c.model_time_constant_s).exp(),
             y_model: None,
+            approach: 0.0,
+            last_setpoint: f64::NAN,
+            transient_overshoot: false,
             comp_pos: c.initial_pos,
             comp_neg: c.initial_neg,
             config,
@@ -118,6 +140,9 @@ impl AdaptiveFriction {
     /// Restart the reference model from the present position (after a fault reset).
     pub fn reset_model(&mut self) {
         self.y_model = None;
+        self.approach = 0.0;
+        self.last_setpoint = f64::NAN;
+        self.transient_overshoot = false;
     }
 
     /// One step with set-point `w` and measured position `y`.
@@ -137,17 +162,30 @@ impl AdaptiveFriction {
         let e_m = position - y_m;
         let e_w = setpoint - position;
         let settled = (setpoint - y_m).abs() < c.settled_band_m;
-        let adapt = settled && e_m.abs() > c.model_deadband_m;
-        let step = c.adaptation_gain_per_m_s * c.period_s * e_m;
-        let compensation = if e_w > c.error_deadband_m {
-            if adapt {
-                self.comp_pos = (self.comp_pos - step).clamp(0.0, c.max_compensation);
+        if setpoint != self.last_setpoint {
+            self.last_setpoint = setpoint;
+            self.transient_overshoot = false;
+        }
+        if !settled {
+            // d = sign(w - y_M): the direction of the move the model is making.
+            self.approach = (setpoint - y_m).signum();
+            if self.approach * e_w < -c.model_deadband_m {
+                self.transient_overshoot = true;
             }
-            self.comp_pos
-        } else if e_w < -c.error_deadband_m {
-            if adapt {
+        }
+        if settled && !self.transient_overshoot && e_m.abs() > c.model_deadband_m {
+            // ΔU_comp± = ∓γ T_0 e_M: short of the model raises, pushed past it lowers.
+            let step = c.adaptation_gain_per_m_s * c.period_s * e_m;
+            if self.approach > 0.0 {
+                self.comp_pos = (self.comp_pos - step).clamp(0.0, c.max_compensation);
+            } else if self.approach < 0.0 {
                 self.comp_neg = (self.comp_neg + step).clamp(0.0, c.max_compensation);
             }
+        }
+        // U_comp(k) = U_comp± sign(e_w(k)), zero within the error deadband.
+        let compensation = if e_w > c.error_deadband_m {
+            self.comp_pos
+        } else if e_w < -c.error_deadband_m {
             -self.comp_neg
         } else {
             0.0
@@ -207,5 +245,79 @@ mod tests {
             f.step(0.01, 0.0);
         }
         assert_eq!(f.compensation_values().0, 0.5);
+    }
+
+    /// Settles on `w` with the position following the model exactly (no deviation, no
+    /// adaptation), approaching from below.
+    fn settle_from_below(f: &mut AdaptiveFriction, w: f64) {
+        let mut y = 0.0;
+        for _ in 0..200 {
+            y = f.step(w, y).model_position;
+        }
+    }
+
+    #[test]
+    fn pushed_past_the_set_point_after_settling_lowers_the_approach_compensation() {
+        let mut f = AdaptiveFriction::new(AdaptiveFrictionConfig {
+            initial_pos: 0.2,
+            initial_neg: 0.2,
+            ..cfg()
+        })
+        .expect("valid");
+        settle_from_below(&mut f, 0.001);
+        assert_eq!(f.compensation_values(), (0.2, 0.2));
+        let mut out = AdaptiveFrictionOutput::default();
+        for _ in 0..200 {
+            out = f.step(0.001, 0.00105);
+        }
+        // 50 µm past a set-point approached from below: U_comp+ pushed too hard.
+        assert!(out.compensation_pos < 0.2 - 0.02, "{out:?}");
+        assert_eq!(out.compensation_neg, 0.2);
+        // The compensation applied on this side is still the negative one.
+        assert_eq!(out.compensation, -0.2);
+    }
+
+    #[test]
+    fn a_limit_cycle_around_the_set_point_does_not_ratchet_the_compensation_up() {
+        let mut f = AdaptiveFriction::new(AdaptiveFrictionConfig {
+            initial_pos: 0.1,
+            initial_neg: 0.1,
+            ..cfg()
+        })
+        .expect("valid");
+        settle_from_below(&mut f, 0.001);
+        // 30 µm either side of the set-point, 20 cycles on each side, for 10 s.
+        for k in 0..4000 {
+            let y = if (k / 20) % 2 == 0 { 0.00097 } else { 0.00103 };
+            f.step(0.001, y);
+        }
+        let (pos, neg) = f.compensation_values();
+        assert!((pos - 0.1).abs() < 0.01, "U_comp+ {pos}");
+        assert_eq!(neg, 0.1);
+    }
+
+    #[test]
+    fn an_overshoot_of_the_transient_freezes_the_adaptation_until_the_next_set_point() {
+        let mut f = AdaptiveFriction::new(AdaptiveFrictionConfig {
+            initial_pos: 0.1,
+            initial_neg: 0.1,
+            ..cfg()
+        })
+        .expect("valid");
+        // At rest at 0, then a step up: the position jumps 50 µm past at once and sticks there.
+        for _ in 0..10 {
+            f.step(0.0, 0.0);
+        }
+        for _ in 0..400 {
+            f.step(0.001, 0.00105);
+        }
+        assert_eq!(f.compensation_values(), (0.1, 0.1));
+        // A new set-point below, approached from above and stuck short: U_comp- adapts again.
+        for _ in 0..400 {
+            f.step(0.0005, 0.0006);
+        }
+        let (pos, neg) = f.compensation_values();
+        assert_eq!(pos, 0.1);
+        assert!(neg > 0.15, "U_comp- {neg}");
     }
 }
