@@ -414,11 +414,17 @@ pub fn derive(options: &FaultTableOptions) -> Result<Derived, BenchError> {
                 same_pattern: Vec::new(),
             });
         } else {
-            return Err(BenchError::Failed(format!(
-                "{name} gives a pattern of its own ({}) but the diagnosis has no fault for it: \
-                 add one to DiagnosedFault",
-                pattern_text(&s)
-            )));
+            // A pattern no fault of the diagnosis stands for: listed, never hidden; on the bus
+            // it shows as its symptoms, and the diagnosis names a fault only if a row is near.
+            file.not_diagnosed.push(NotDiagnosedFile {
+                simulated: name,
+                reason: format!(
+                    "a pattern of its own ({}) that no fault of the diagnosis stands for: \
+                     published as symptoms only",
+                    pattern_text(&s)
+                ),
+                relative_change: Some(change.to_vec()),
+            });
         }
         outcomes.push(FaultOutcome {
             entry,
