@@ -272,29 +272,65 @@ fn regimes(c: &Comparison, r: &[f64], data: &Dataset, prep: &Prepared) -> Vec<Re
     }
     let supply = data.supply.as_deref().unwrap_or(&[]);
     let within = |x: f64, lo: f64, hi: f64, last: bool| x >= lo && (x < hi || (last && x <= hi));
-    let mut sums = vec![Sums::default(); bands.len()];
-    for (&e, &k) in r.iter().zip(&c.index) {
-        let (vk, speed) = (v[k], v[k].abs());
-        for (band, sum) in bands.iter().zip(sums.iter_mut()) {
-            let hit = match band.test {
-                Test::Positive(lo) => vk > lo,
-                Test::Negative(lo) => vk < -lo,
-                Test::Slow(lo) => speed <= lo,
-                Test::Speed(lo, hi) => speed > lo && speed <= hi,
-                Test::SpeedBand { lo, hi, last } => speed > lo && (speed <= hi || last),
-                Test::NearReversal(w) => since[k] < w,
-                Test::AwayFromReversal(w) => since[k] >= w,
-                Test::Position(lo, hi, last) => within(data.output[k], lo, hi, last),
-                Test::Supply(lo, hi, last) => within(supply[k], lo, hi, last),
-                Test::Time(lo, hi, last) => data.time[k] >= lo && (data.time[k] < hi || last),
-            };
-            if hit {
-                sum.squares += e * e;
-                sum.sum += e;
-                sum.count += 1;
+    // The bands of a group do not overlap: a sample's search in its group ends at the first
+    // band that holds it.
+    let group_end: Vec<usize> = (0..bands.len())
+        .map(|b| {
+            (b..bands.len())
+                .find(|&j| bands[j].group != bands[b].group)
+                .unwrap_or(bands.len())
+        })
+        .collect();
+    let sum_range = |range: std::ops::Range<usize>| {
+        let mut sums = vec![Sums::default(); bands.len()];
+        for (&e, &k) in r[range.clone()].iter().zip(&c.index[range]) {
+            let (vk, speed) = (v[k], v[k].abs());
+            let mut b = 0;
+            while b < bands.len() {
+                let hit = match bands[b].test {
+                    Test::Positive(lo) => vk > lo,
+                    Test::Negative(lo) => vk < -lo,
+                    Test::Slow(lo) => speed <= lo,
+                    Test::Speed(lo, hi) => speed > lo && speed <= hi,
+                    Test::SpeedBand { lo, hi, last } => speed > lo && (speed <= hi || last),
+                    Test::NearReversal(w) => since[k] < w,
+                    Test::AwayFromReversal(w) => since[k] >= w,
+                    Test::Position(lo, hi, last) => within(data.output[k], lo, hi, last),
+                    Test::Supply(lo, hi, last) => within(supply[k], lo, hi, last),
+                    Test::Time(lo, hi, last) => data.time[k] >= lo && (data.time[k] < hi || last),
+                };
+                if hit {
+                    let sum = &mut sums[b];
+                    sum.squares += e * e;
+                    sum.sum += e;
+                    sum.count += 1;
+                    b = group_end[b];
+                } else {
+                    b += 1;
+                }
             }
         }
-    }
+        sums
+    };
+    // Two halves of the samples on two threads on long data sets.
+    let n = r.len();
+    let sums = if n < 100_000 {
+        sum_range(0..n)
+    } else {
+        std::thread::scope(|s| {
+            let second = s.spawn(|| sum_range(n / 2..n));
+            let mut sums = sum_range(0..n / 2);
+            let more = second
+                .join()
+                .unwrap_or_else(|e| std::panic::resume_unwind(e));
+            for (a, b) in sums.iter_mut().zip(more) {
+                a.squares += b.squares;
+                a.sum += b.sum;
+                a.count += b.count;
+            }
+            sums
+        })
+    };
     bands
         .into_iter()
         .zip(sums)
