@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Subcommand};
 
-use super::compare::{compare, default_mode, id_comparison, Mode};
+use super::compare::{compare, default_mode, holdout, id_comparison, Mode};
 use super::data::{load, Columns, Dataset};
 use super::diagnose::{diagnose, DiagnoseOptions};
 use super::model::Model;
@@ -69,6 +69,10 @@ pub enum LabCommand {
         /// Horizon of k_step in samples.
         #[arg(long, default_value_t = 10)]
         k: usize,
+        /// Hold out this fraction of the samples (the last ones, e.g. 0.3): refit the free
+        /// parameters on the rest and report fit and NRMSE on both parts.
+        #[arg(long, value_name = "FRACTION")]
+        holdout: Option<f64>,
         /// Print JSON.
         #[arg(long)]
         json: bool,
@@ -160,6 +164,7 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             model,
             mode,
             k,
+            holdout: fraction,
             json,
         } => {
             let (d, prep) = load_data(&data)?;
@@ -167,11 +172,15 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             let mode = mode.unwrap_or_else(|| default_mode(&m));
             let c = compare(&m, &d, &prep, mode, k)?;
             let b = breakdown(&c, &d, &prep);
+            let held = fraction
+                .map(|f| holdout(&m, &d, &prep, mode, k, f))
+                .transpose()?;
             if json {
                 let out = serde_json::json!({
                     "mode": c.mode.name(), "quantity": c.quantity, "unit": c.unit,
                     "fit": c.fit, "nrmse": c.nrmse, "rmse": c.rmse, "samples": c.index.len(),
                     "note": c.note, "regimes": b.regimes, "tests": b.tests, "worst": b.worst,
+                    "holdout": held,
                 });
                 println!("{}", serde_json::to_string_pretty(&out)?);
                 return Ok(());
@@ -209,6 +218,20 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 );
             }
             println!("\n{}", b.worst);
+            if let Some(h) = held {
+                println!(
+                    "\nheld-out validation (last {:.0} %, from t = {:.3} s; {}):",
+                    100.0 * h.fraction,
+                    h.split_time_s,
+                    h.note
+                );
+                for (part, s) in [("training", h.training), ("held out", h.held_out)] {
+                    println!(
+                        "  {part:<9} {:>8} samples  fit {:>6.1} %  NRMSE {:.4}  RMSE {:.3e} {}",
+                        s.samples, s.fit, s.nrmse, s.rmse, c.unit
+                    );
+                }
+            }
             Ok(())
         }
         LabCommand::Diagnose {
