@@ -76,7 +76,7 @@ pub struct Diagnosis {
     pub candidates: Vec<Candidate>,
     /// The effect most likely missing, or none.
     pub verdict: Option<String>,
-    /// Samples used and the effective number behind the tests.
+    /// Samples used (moving and at rest) and the effective number behind the tests.
     pub samples: usize,
     /// `N_eff`.
     pub effective_samples: f64,
@@ -84,12 +84,12 @@ pub struct Diagnosis {
     pub not_assessed: Vec<String>,
 }
 
-/// Effects the lab can diagnose from the balance of forces. Stiction acts only at rest, where
-/// the balance holds no information; `saturation`, `backlash` and `varying_ratio` need a free-run
-/// comparison the diagnosis does not do yet.
+/// Effects the lab can diagnose from the balance of forces (stiction from the samples at rest,
+/// backlash and varying_ratio from the `motor_gear` load balance).
 pub const CATALOGUE: &[EffectKind] = &[
     EffectKind::Viscous,
     EffectKind::Coulomb,
+    EffectKind::Stiction,
     EffectKind::Stribeck,
     EffectKind::Spring,
     EffectKind::PositionStiffness,
@@ -98,7 +98,11 @@ pub const CATALOGUE: &[EffectKind] = &[
     EffectKind::Deadzone,
     EffectKind::SupplyGain,
     EffectKind::DeadTime,
+    EffectKind::Saturation,
+    EffectKind::Payload,
     EffectKind::Offset,
+    EffectKind::Backlash,
+    EffectKind::VaryingRatio,
 ];
 
 fn corr(a: &[f64], b: &[f64]) -> f64 {
@@ -160,10 +164,93 @@ fn evidence(kind: EffectKind, base: &IdFit, data: &Dataset, d: &Prepared, unit: 
                  sign(v) e^(-|v|/v_S) {lo_s:+.2} (mean {lo:+.3e} slow, {hi:+.3e} fast)"
             )
         }
-        EffectKind::Spring | EffectKind::Payload => format!(
+        EffectKind::Spring => format!(
             "residual structured by position: correlation with y {:+.2}",
             corr(r, &at(&|k| d.y[k]))
         ),
+        EffectKind::Payload => {
+            // A load that saturates: the position slope of the residual differs inside and out.
+            let ys = at(&|k| d.y[k].abs());
+            let mid = super::signals::abs_quantile(&ys, 0.5);
+            let part = |inner: bool| {
+                let (rr, yy): (Vec<f64>, Vec<f64>) = idx
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, &k)| (d.y[k].abs() < mid) == inner)
+                    .map(|(i, &k)| (r[i], d.y[k]))
+                    .unzip();
+                corr(&rr, &yy)
+            };
+            format!(
+                "residual bends with position: correlation with y {:+.2} for |y| below its                  median, {:+.2} above",
+                part(true),
+                part(false)
+            )
+        }
+        EffectKind::Stiction => {
+            let held = base.standstill_residual.iter().filter(|x| **x != 0.0).count();
+            let (up, down) = base
+                .standstill_residual
+                .iter()
+                .fold((0.0f64, 0.0f64), |(a, b), &x| (a.max(x), b.max(-x)));
+            format!(
+                "held at rest beyond the sliding friction: {held} of {} samples at rest need                  more, up to {up:.3e} {unit} positive and {down:.3e} negative over the band                  [-{:.3e}, {:.3e}]",
+                base.standstill.len(),
+                base.band.1,
+                base.band.0
+            )
+        }
+        EffectKind::Saturation => {
+            let q = super::signals::abs_quantile(&data.input, 0.9);
+            let (hi, _) = mean_where(
+                &at(&|k| data.input[k].signum()).iter().zip(r).map(|(s, x)| s * x).collect::<Vec<_>>(),
+                idx,
+                |k| data.input[k].abs() > q,
+            );
+            let (lo, _) = mean_where(
+                &at(&|k| data.input[k].signum()).iter().zip(r).map(|(s, x)| s * x).collect::<Vec<_>>(),
+                idx,
+                |k| data.input[k].abs() <= q,
+            );
+            format!(
+                "drive falls short at large commands: mean residual times sign(u) {hi:+.3e}                  {unit} where |u| is in its top 10 %, {lo:+.3e} elsewhere"
+            )
+        }
+        EffectKind::Backlash => {
+            // Reversals of the drive signal; the play decouples the load just after them.
+            let drive = d.current.as_ref().unwrap_or(&d.u);
+            let window = (0.05 / d.dt).ceil() as usize;
+            let mut since = vec![usize::MAX; drive.len()];
+            let mut last: Option<usize> = None;
+            for k in 1..drive.len() {
+                if drive[k].signum() != drive[k - 1].signum() {
+                    last = Some(k);
+                }
+                if let Some(l) = last {
+                    since[k] = k - l;
+                }
+            }
+            let rms = |sel: &dyn Fn(usize) -> bool| {
+                let (s, m) = idx
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, &k)| sel(k))
+                    .fold((0.0, 0usize), |(s, m), (i, _)| (s + r[i] * r[i], m + 1));
+                (s / m.max(1) as f64).sqrt()
+            };
+            format!(
+                "residual bursts after drive reversals: RMS {:.3e} {unit} within 50 ms after one,                  {:.3e} elsewhere",
+                rms(&|k| since[k] < window),
+                rms(&|k| since[k] >= window)
+            )
+        }
+        EffectKind::VaryingRatio => {
+            let drive = d.current.as_ref().unwrap_or(&d.u);
+            format!(
+                "drive gain grows with the load angle: correlation of the residual with                  (1/cos θ - 1)·D {:+.2}",
+                corr(r, &at(&|k| (1.0 / d.y[k].cos() - 1.0) * drive[k]))
+            )
+        }
         EffectKind::PositionStiffness => {
             let drive = d.current.as_ref().unwrap_or(&d.u);
             format!(
@@ -243,6 +330,12 @@ fn evidence(kind: EffectKind, base: &IdFit, data: &Dataset, d: &Prepared, unit: 
     }
 }
 
+/// Parameters an effect declares (a spring whose stiffness ends at zero is still a spring, not a
+/// simpler offset).
+fn complexity(c: &Candidate) -> usize {
+    EffectKind::from_name(&c.effect).map_or(usize::MAX, |k| k.params().len())
+}
+
 fn bic_delta(rss_b: f64, k_b: usize, rss_c: f64, k_c: usize, n_eff: f64) -> f64 {
     // BIC = N_eff ln(RSS/N) + k ln(N_eff); the difference needs only the ratio of the RSS.
     n_eff * (rss_c / rss_b).ln() + (k_c as f64 - k_b as f64) * n_eff.ln()
@@ -267,8 +360,11 @@ pub fn diagnose(
     }
     let split = ((1.0 - opts.holdout) * index.len() as f64) as usize;
     let (train, test) = index.split_at(split);
-    let n_eff = (index.len() as f64 * d.n_eff_per_sample).max(10.0);
     let (base_spec, base) = fit_spec(&model.spec, data, d, None)?;
+    // Moving samples and samples at rest both enter the residual, rest weighted as much as
+    // motion.
+    let samples = index.len() + base.standstill.len();
+    let n_eff = (base.weighted_samples * d.n_eff_per_sample).max(10.0);
     let base_holdout = holdout_rss(&model.spec, data, d, train, test)?;
     let family = model.spec.family;
     let mut kinds = Vec::new();
@@ -339,11 +435,11 @@ pub fn diagnose(
             .enumerate()
             .filter(|(_, c)| {
                 c.significant
-                    && c.parameters_added < best.parameters_added
+                    && complexity(c) < complexity(&best)
                     && (c.nrmse - best.nrmse) / c.nrmse.max(f64::MIN_POSITIVE)
                         < opts.min_improvement
             })
-            .min_by(|a, b| a.1.parameters_added.cmp(&b.1.parameters_added))
+            .min_by_key(|(_, c)| complexity(c))
             .map(|(i, _)| i);
         if let Some(i) = simpler {
             let c = candidates.remove(i);
@@ -359,7 +455,7 @@ pub fn diagnose(
         nrmse_base: base.nrmse,
         candidates,
         verdict,
-        samples: index.len(),
+        samples,
         effective_samples: n_eff,
         not_assessed,
     })

@@ -13,6 +13,7 @@
 //! | [`model`] | model files (`config/models/*.toml`) and `--family F --with a,b` |
 //! | [`signals`] | zero-phase filtering and derivatives for the regression |
 //! | [`regress`] | inverse-dynamics regression: the balance of forces, linear in its parameters |
+//! | [`regress_gear`] | the same for `motor_gear`: the load balance with the torque the gear transmits |
 //! | [`compare`] | prediction modes and the fit / NRMSE / RMSE of a model |
 //! | [`regimes`] | error by regime and residual tests: where a model fails |
 //! | [`diagnose`] | candidate effects, their refit, penalised ranking and verdict |
@@ -29,6 +30,7 @@ pub mod diagnose;
 pub mod model;
 pub mod regimes;
 pub mod regress;
+pub mod regress_gear;
 pub mod report;
 pub mod signals;
 mod svg;

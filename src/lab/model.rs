@@ -172,6 +172,21 @@ mod tests {
     }
 
     #[test]
+    fn every_example_model_loads() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("config/models");
+        let mut seen = 0;
+        for entry in std::fs::read_dir(&dir).expect("config/models exists") {
+            let path = entry.expect("entry").path();
+            if path.extension().is_some_and(|e| e == "toml") {
+                let m = Model::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                assert!(!m.effects().is_empty(), "{}", path.display());
+                seen += 1;
+            }
+        }
+        assert!(seen >= 4, "found {seen} models");
+    }
+
+    #[test]
     fn errors_name_the_key() {
         let err = Model::from_toml(
             "family = \"solenoid\"\n[lab]\nfixed = [\"solenoid.bogus\"]\n",

@@ -12,8 +12,18 @@
 //! after dead time, dead zone and power stage (linear_axis), the coil current (solenoid), or
 //! `(m/τ) v_c(d)` of the valves (pneumatic, where `(m/τ) v` is then a term too).
 //! Parameters that enter nonlinearly (Stribeck velocity, hysteresis width, dead-zone threshold,
-//! supply exponent, dead time) are found by a search over a grid with the linear ones refitted
-//! at each point.
+//! supply exponent, dead time, saturation limits, payload range, backlash, ratio limit) are
+//! found by a search over a grid with the linear ones refitted at each point.
+//!
+//! Samples at rest carry information too: there the dry friction must hold the body, so the
+//! friction the balance demands, `F_f(k) = -Σ_{j not dry} θ_j φ_j(k)`, must lie inside the
+//! breakaway band `[-B_-, B_+]` (Coulomb plus Stribeck excess at zero speed, or the stiction
+//! level when higher). The filter is a positive-weighted average, so the filtered friction of a
+//! correct model stays inside the band; a model that leaves it there is wrong at rest (stiction
+//! missing, or an offset beyond what friction can hold). Its excess over the band is the
+//! standstill residual, counted with the moving residual in `rss` and `nrmse`.
+//! `motor_gear` has its own drive side ([`super::regress_gear`]): the torque the gear transmits
+//! to the load, from the measured load angle and the drive signal.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -46,6 +56,16 @@ pub struct Balance {
     pub index: Vec<usize>,
     /// Nonlinear parameters and the values used.
     pub nonlinear: Vec<(String, f64)>,
+    /// Samples at rest (between the filter edges, away from the extreme positions, where an end
+    /// stop may hold the body): where the dry friction must hold it.
+    pub standstill: Vec<usize>,
+    /// Breakaway levels `(S_+, S_-)` of the model's stiction, when it has one.
+    pub breakaway: Option<(f64, f64)>,
+    /// True when the breakaway levels are free: the fit sets them to the largest holding force
+    /// seen at rest.
+    pub breakaway_free: bool,
+    /// Corner (Hz) and sample period (s) of the smoothing of the friction demanded at rest.
+    pub rest_filter: (f64, f64),
 }
 
 /// The result of fitting (or just evaluating) a balance.
@@ -65,11 +85,22 @@ pub struct IdFit {
     pub target: Vec<f64>,
     /// `target - Σ_free θ φ`, on `index`.
     pub residual: Vec<f64>,
-    /// Residual sum of squares.
+    /// Samples at rest checked against the breakaway band.
+    pub standstill: Vec<usize>,
+    /// Friction demanded at rest minus its clamp to the breakaway band, on `standstill`.
+    pub standstill_residual: Vec<f64>,
+    /// Breakaway band `(B_+, B_-)` used at rest.
+    pub band: (f64, f64),
+    /// Fitted breakaway levels of the stiction, when the model has one.
+    pub breakaway: Option<(f64, f64)>,
+    /// Samples behind `rss`: the moving ones plus those at rest, weighted so that rest counts
+    /// as much as motion.
+    pub weighted_samples: f64,
+    /// Residual sum of squares, moving residual plus weighted standstill residual.
     pub rss: f64,
     /// Number of free coefficients plus grid-searched parameters.
     pub parameters: usize,
-    /// `NRMSE = RMS(residual) / std(target)`.
+    /// `NRMSE = RMS(moving and weighted standstill residual) / std(target)`.
     pub nrmse: f64,
     /// Nonlinear parameters and their values.
     pub nonlinear: Vec<(String, f64)>,
@@ -81,7 +112,7 @@ pub fn representable(family: Family, kind: EffectKind, d: &Prepared) -> bool {
     use EffectKind as E;
     let common = matches!(
         kind,
-        E::Viscous | E::Coulomb | E::Stribeck | E::Spring | E::Offset | E::Payload
+        E::Viscous | E::Coulomb | E::Stribeck | E::Stiction | E::Spring | E::Offset | E::Payload
     );
     match family {
         Family::LinearAxis => {
@@ -93,6 +124,7 @@ pub fn representable(family: Family, kind: EffectKind, d: &Prepared) -> bool {
                         | E::DirectionAsymmetry
                         | E::Deadzone
                         | E::DeadTime
+                        | E::Saturation
                 )
                 || kind == E::SupplyGain && d.supply.is_some()
         }
@@ -100,23 +132,23 @@ pub fn representable(family: Family, kind: EffectKind, d: &Prepared) -> bool {
             common
                 || matches!(kind, E::PositionStiffness | E::Hysteresis)
                 || (d.current.is_none()
-                    && (matches!(kind, E::Deadzone | E::DeadTime)
+                    && (matches!(kind, E::Deadzone | E::DeadTime | E::Saturation)
                         || kind == E::SupplyGain && d.supply.is_some()))
         }
         Family::Pneumatic => {
             common
-                || matches!(kind, E::Deadzone | E::DeadTime)
+                || matches!(kind, E::Deadzone | E::DeadTime | E::Saturation)
                 || kind == E::SupplyGain && d.supply.is_some()
         }
-        Family::MotorGear => false,
+        Family::MotorGear => common || super::regress_gear::representable(kind, d),
     }
 }
 
-fn p(spec: &PlantSpec, name: &str) -> f64 {
+pub(super) fn p(spec: &PlantSpec, name: &str) -> f64 {
     spec.get(name).unwrap_or(0.0)
 }
 
-fn param_term(spec: &PlantSpec, name: &str, col: Vec<f64>) -> Term {
+pub(super) fn param_term(spec: &PlantSpec, name: &str, col: Vec<f64>) -> Term {
     let (free, bounds) = spec
         .params()
         .into_iter()
@@ -133,7 +165,7 @@ fn param_term(spec: &PlantSpec, name: &str, col: Vec<f64>) -> Term {
     }
 }
 
-fn fixed_term(name: &str, col: Vec<f64>) -> Term {
+pub(super) fn fixed_term(name: &str, col: Vec<f64>) -> Term {
     Term {
         name: name.to_string(),
         free: false,
@@ -145,7 +177,7 @@ fn fixed_term(name: &str, col: Vec<f64>) -> Term {
 
 /// Supply over its nominal value, `S / S_nom` (voltage) or `(P_atm - P) / (P_atm - P_nom)`
 /// (pneumatic low pressure), per sample; 1 when no supply was recorded.
-fn supply_ratio(spec: &PlantSpec, raw: &Dataset) -> Vec<f64> {
+pub(super) fn supply_ratio(spec: &PlantSpec, raw: &Dataset) -> Vec<f64> {
     let fam = spec.family.name();
     match (&raw.supply, spec.family) {
         (None, _) => vec![1.0; raw.len()],
@@ -161,8 +193,8 @@ fn supply_ratio(spec: &PlantSpec, raw: &Dataset) -> Vec<f64> {
     }
 }
 
-/// Command after dead time and dead zone, per sample.
-fn shaped_command(spec: &PlantSpec, raw: &Dataset, dt: f64) -> Vec<f64> {
+/// Command after dead time, saturation and dead zone (the order of the power stage), per sample.
+pub(super) fn shaped_command(spec: &PlantSpec, raw: &Dataset, dt: f64) -> Vec<f64> {
     let mut u = raw.input.clone();
     if spec.effects.iter().any(|e| e.kind == EffectKind::DeadTime) {
         let shift = (p(spec, "dead_time.delay_s") / dt).round() as usize;
@@ -171,6 +203,19 @@ fn shaped_command(spec: &PlantSpec, raw: &Dataset, dt: f64) -> Vec<f64> {
             let mut shifted = vec![first; shift.min(u.len())];
             shifted.extend_from_slice(&u[..u.len().saturating_sub(shift)]);
             u = shifted;
+        }
+    }
+    if spec
+        .effects
+        .iter()
+        .any(|e| e.kind == EffectKind::Saturation)
+    {
+        let unit = spec.command.suffix_and_unit().0;
+        let lo = p(spec, &format!("saturation.min{unit}"));
+        let hi = p(spec, &format!("saturation.max{unit}"));
+        for x in &mut u {
+            // u' = min(max(u, u_min), u_max)
+            *x = x.max(lo).min(hi);
         }
     }
     if spec.effects.iter().any(|e| e.kind == EffectKind::Deadzone) {
@@ -191,11 +236,8 @@ fn shaped_command(spec: &PlantSpec, raw: &Dataset, dt: f64) -> Vec<f64> {
 
 /// Build the balance of forces of `spec` on the data (raw and prepared).
 pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<Balance> {
-    let fam = spec.family.name();
-    let n = d.y.len();
-    let has = |k: EffectKind| spec.effects.iter().any(|e| e.kind == k);
     for e in &spec.effects {
-        if !representable(spec.family, e.kind, d) && e.kind != EffectKind::Stiction {
+        if !representable(spec.family, e.kind, d) {
             anyhow::bail!(
                 "effect '{}' of a {} model has no place in the inverse-dynamics regression{}",
                 e.kind,
@@ -208,13 +250,84 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
             );
         }
     }
+    let mut terms = Vec::new();
+    let mut nonlinear = Vec::new();
+    if spec.family == Family::MotorGear {
+        super::regress_gear::drive_terms(spec, raw, d, &mut terms, &mut nonlinear)?;
+    } else {
+        body_drive_terms(spec, raw, d, &mut terms, &mut nonlinear)?;
+    }
+    load_terms(spec, d, &mut terms, &mut nonlinear);
+    let n = d.y.len();
+    let index = (0..n).filter(|&k| d.valid[k]).collect();
+    let stiction = spec.effects.iter().any(|e| e.kind == EffectKind::Stiction);
+    let fsx = force_suffix(spec);
+    let breakaway = stiction.then(|| {
+        (
+            p(spec, &format!("stiction.breakaway_pos{fsx}")),
+            p(spec, &format!("stiction.breakaway_neg{fsx}")),
+        )
+    });
+    let breakaway_free = stiction
+        && spec
+            .params()
+            .iter()
+            .any(|(n, p)| p.free && n.starts_with("stiction.breakaway_"));
+    Ok(Balance {
+        terms,
+        index,
+        nonlinear,
+        standstill: standstill_samples(d),
+        breakaway,
+        breakaway_free,
+        rest_filter: (0.25 * d.cutoff_hz, d.dt),
+    })
+}
+
+/// Largest acceleration at rest, as a fraction of the 95 % quantile of `|a|`.
+const REST_ACCELERATION: f64 = 0.05;
+
+/// Samples at rest (slow and hardly accelerating) between the filter edges, except at the extreme positions of the record
+/// (within 0.5 % of the range), where an end stop may be what holds the body.
+pub fn standstill_samples(d: &Prepared) -> Vec<usize> {
+    let (Some(first), Some(last)) = (
+        d.valid.iter().position(|v| *v),
+        d.valid.iter().rposition(|v| *v),
+    ) else {
+        return Vec::new();
+    };
+    let (lo, hi) = d.y[first..=last]
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &y| {
+            (a.min(y), b.max(y))
+        });
+    let margin = 0.005 * (hi - lo);
+    // At rest the acceleration is small too: a reversal passes zero speed at full acceleration,
+    // with its equation error, and holds nothing.
+    let a_rest = REST_ACCELERATION * abs_quantile(&d.a[first..=last], 0.95);
+    (first..=last)
+        .filter(|&k| {
+            !d.valid[k] && d.a[k].abs() <= a_rest && d.y[k] > lo + margin && d.y[k] < hi - margin
+        })
+        .collect()
+}
+
+/// Inertia and drive terms of the families built on one rigid body.
+fn body_drive_terms(
+    spec: &PlantSpec,
+    raw: &Dataset,
+    d: &Prepared,
+    terms: &mut Vec<Term>,
+    nonlinear: &mut Vec<(String, f64)>,
+) -> anyhow::Result<()> {
+    let fam = spec.family.name();
+    let n = d.y.len();
+    let has = |k: EffectKind| spec.effects.iter().any(|e| e.kind == k);
     let f = |name: &str| format!("{fam}.{name}");
     let dir: Vec<f64> =
         d.v.iter()
             .map(|&v| if v >= 0.0 { 1.0 } else { -1.0 })
             .collect();
-    let mut terms = Vec::new();
-    let mut nonlinear = Vec::new();
     // Inertia.
     terms.push(param_term(spec, &f("mass_kg"), d.a.clone()));
     // The drive signal D and its gain K.
@@ -239,6 +352,13 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
                 name.to_string()
             };
             nonlinear.push((full.clone(), p(spec, &full)));
+        }
+    }
+    if has(EffectKind::Saturation) {
+        let unit = spec.command.suffix_and_unit().0;
+        for side in ["max", "min"] {
+            let key = format!("saturation.{side}{unit}");
+            nonlinear.push((key.clone(), p(spec, &key)));
         }
     }
     let (gain, drive_raw): (f64, Vec<f64>) = match spec.family {
@@ -314,9 +434,7 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
             ));
             (0.0, Vec::new())
         }
-        Family::MotorGear => anyhow::bail!(
-            "motor_gear has no inverse-dynamics form in the lab yet; use --mode free_run"
-        ),
+        Family::MotorGear => anyhow::bail!("motor_gear: the drive side is in regress_gear"),
     };
     if spec.family != Family::Pneumatic {
         // Drive force pieces, filtered after the nonlinear input stage.
@@ -428,6 +546,19 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
             terms.push(fixed_term("hysteresis play", zero_phase(&diff, fc, dt)));
         }
     }
+    Ok(())
+}
+
+/// The resisting forces on the moving body (the load of `motor_gear`): friction, spring,
+/// payload, offset.
+fn load_terms(
+    spec: &PlantSpec,
+    d: &Prepared,
+    terms: &mut Vec<Term>,
+    nonlinear: &mut Vec<(String, f64)>,
+) {
+    let n = d.y.len();
+    let has = |k: EffectKind| spec.effects.iter().any(|e| e.kind == k);
     // Resisting forces.
     let one = |cond: &dyn Fn(usize) -> f64| (0..n).map(cond).collect::<Vec<f64>>();
     if has(EffectKind::Viscous) {
@@ -498,6 +629,7 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
     }
     if has(EffectKind::Payload) {
         let full = p(spec, &format!("payload.full_scale{}", pos_suffix(spec)));
+        nonlinear.push((format!("payload.full_scale{}", pos_suffix(spec)), full));
         terms.push(param_term(
             spec,
             &format!("payload.max_load{fsx}"),
@@ -511,15 +643,9 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
             vec![-1.0; n],
         ));
     }
-    let index = (0..n).filter(|&k| d.valid[k]).collect();
-    Ok(Balance {
-        terms,
-        index,
-        nonlinear,
-    })
 }
 
-fn force_suffix(spec: &PlantSpec) -> &'static str {
+pub(super) fn force_suffix(spec: &PlantSpec) -> &'static str {
     spec.family
         .suffix_and_unit(crate::physics::Quantity::Force, spec.command)
         .0
@@ -534,7 +660,7 @@ fn stiffness_suffix(spec: &PlantSpec) -> &'static str {
         .suffix_and_unit(crate::physics::Quantity::Stiffness, spec.command)
         .0
 }
-fn pos_suffix(spec: &PlantSpec) -> &'static str {
+pub(super) fn pos_suffix(spec: &PlantSpec) -> &'static str {
     spec.family
         .suffix_and_unit(crate::physics::Quantity::Position, spec.command)
         .0
@@ -558,14 +684,16 @@ impl Balance {
     pub fn evaluate_on(&self, index: &[usize]) -> IdFit {
         let free: Vec<bool> = self.terms.iter().map(|t| t.free).collect();
         let values: Vec<f64> = self.terms.iter().map(|t| t.value).collect();
-        self.finish(values, free, vec![None; self.terms.len()], 0, index)
+        let n = self.terms.len();
+        self.finish(values, free, vec![None; n], 0, index, self.breakaway)
     }
 
     /// Residual of the balance with the coefficients as they are (no fit).
     pub fn evaluate(&self) -> IdFit {
         let free: Vec<bool> = self.terms.iter().map(|t| t.free).collect();
         let values: Vec<f64> = self.terms.iter().map(|t| t.value).collect();
-        self.finish(values, free, vec![None; self.terms.len()], 0, &self.index)
+        let n = self.terms.len();
+        self.finish(values, free, vec![None; n], 0, &self.index, self.breakaway)
     }
 
     fn target_and_prediction(&self, values: &[f64], free: &[bool], k: usize) -> (f64, f64) {
@@ -581,6 +709,69 @@ impl Balance {
         (target, pred)
     }
 
+    /// The friction the balance demands, `F_f = -Σ_{j not dry} θ_j φ_j(k)`, smoothed once more
+    /// (at a quarter of the corner): the noise of the differentiated position falls steeply
+    /// with the corner, and a positive-weighted average of a friction inside the band stays
+    /// inside it.
+    fn friction_demanded(&self, values: &[f64]) -> Vec<f64> {
+        let n = self.terms.first().map_or(0, |t| t.col.len());
+        let mut f = vec![0.0; n];
+        for (t, v) in self.terms.iter().zip(values) {
+            if !is_dry(&t.name) {
+                for (fk, c) in f.iter_mut().zip(&t.col) {
+                    *fk -= v * c;
+                }
+            }
+        }
+        let (corner, dt) = self.rest_filter;
+        zero_phase(&f, corner, dt)
+    }
+
+    /// Breakaway band `(B_+, B_-)`: friction at zero speed (Coulomb plus Stribeck excess), or
+    /// the stiction level where that is higher.
+    fn band(&self, values: &[f64], breakaway: Option<(f64, f64)>) -> (f64, f64) {
+        let (mut pos, mut neg) = (0.0, 0.0);
+        for (t, v) in self.terms.iter().zip(values) {
+            if t.name.starts_with("coulomb.coulomb_pos")
+                || t.name.starts_with("stribeck.excess_pos")
+            {
+                pos += v;
+            } else if t.name.starts_with("coulomb.coulomb_neg")
+                || t.name.starts_with("stribeck.excess_neg")
+            {
+                neg += v;
+            }
+        }
+        match breakaway {
+            Some((sp, sn)) => (pos.max(sp), neg.max(sn)),
+            None => (pos, neg),
+        }
+    }
+
+    /// Samples at rest within the span of `index`.
+    fn standstill_in(&self, index: &[usize]) -> Vec<usize> {
+        match (index.first(), index.last()) {
+            (Some(&a), Some(&b)) => self
+                .standstill
+                .iter()
+                .copied()
+                .filter(|k| (a..=b).contains(k))
+                .collect(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// Stiction levels that hold every sample at rest in the span of `index`: the largest
+    /// holding force seen in each direction, at least the friction at zero speed.
+    fn fit_breakaway(&self, values: &[f64], index: &[usize]) -> (f64, f64) {
+        let (pos, neg) = self.band(values, None);
+        let f = self.friction_demanded(values);
+        self.standstill_in(index)
+            .iter()
+            .map(|&k| f[k])
+            .fold((pos, neg), |(p, n), f| (p.max(f), n.max(-f)))
+    }
+
     fn finish(
         &self,
         values: Vec<f64>,
@@ -588,6 +779,7 @@ impl Balance {
         intervals: Vec<Option<(f64, f64)>>,
         extra: usize,
         index: &[usize],
+        breakaway: Option<(f64, f64)>,
     ) -> IdFit {
         let mut target = Vec::with_capacity(index.len());
         let mut residual = Vec::with_capacity(index.len());
@@ -596,12 +788,40 @@ impl Balance {
             target.push(t);
             residual.push(t - p);
         }
-        let rss: f64 = residual.iter().map(|r| r * r).sum();
-        let n = residual.len().max(1) as f64;
+        let standstill = self.standstill_in(index);
+        let band = self.band(&values, breakaway);
+        let demanded = if standstill.is_empty() {
+            Vec::new()
+        } else {
+            self.friction_demanded(&values)
+        };
+        // Excess of the demanded friction over the band, beyond the RMS of the moving equation
+        // error (the band's edge is a fitted friction level, and a body at rest often sits right
+        // at it): zero for a body the model can hold.
+        let tolerance =
+            (residual.iter().map(|r| r * r).sum::<f64>() / residual.len().max(1) as f64).sqrt();
+        let (hi, lo) = (band.0 + tolerance, -band.1 - tolerance);
+        let standstill_residual: Vec<f64> = standstill
+            .iter()
+            .map(|&k| demanded[k] - demanded[k].clamp(lo, hi))
+            .collect();
+        // Rest and motion count as two regimes of equal weight: a record spends little time at
+        // rest, yet an error there is as much an error of the model. Too few samples at rest
+        // to judge count for nothing.
+        let (n_move, n_rest) = (residual.len(), standstill_residual.len());
+        let rest_weight = if n_rest >= MIN_REST_SAMPLES {
+            n_move as f64 / n_rest as f64
+        } else {
+            0.0
+        };
+        let square = |r: &Vec<f64>| r.iter().map(|x| x * x).sum::<f64>();
+        let rss = square(&residual) + rest_weight * square(&standstill_residual);
+        let weighted_samples = n_move as f64 + rest_weight * n_rest as f64;
+        let n = n_move.max(1) as f64;
         let mean = target.iter().sum::<f64>() / n;
         let var = target.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / n;
         let nrmse = if var > 0.0 {
-            (rss / n).sqrt() / var.sqrt()
+            (rss / weighted_samples.max(1.0)).sqrt() / var.sqrt()
         } else {
             f64::INFINITY
         };
@@ -614,6 +834,11 @@ impl Balance {
             index: index.to_vec(),
             target,
             residual,
+            standstill,
+            standstill_residual,
+            band,
+            breakaway,
+            weighted_samples,
             rss,
             nrmse,
             nonlinear: self.nonlinear.clone(),
@@ -677,17 +902,34 @@ impl Balance {
                 Err(_) => break,
             }
         }
-        self.finish(values, free, intervals, extra, index)
+        let (extra, breakaway) = if self.breakaway_free {
+            (extra + 2, Some(self.fit_breakaway(&values, index)))
+        } else {
+            (extra, self.breakaway)
+        };
+        self.finish(values, free, intervals, extra, index, breakaway)
     }
 }
 
-/// A grid for a nonlinear parameter of an effect, from the data: `(qualified name, values)`.
+/// Steps of the refinement between the neighbours of the best grid point.
+const REFINE: usize = 6;
+
+/// Fewer samples at rest than this say nothing about the model at rest.
+const MIN_REST_SAMPLES: usize = 20;
+
+/// Dry-friction terms: they take what holds the body at rest.
+fn is_dry(name: &str) -> bool {
+    name.starts_with("coulomb.") || name.starts_with("stribeck.")
+}
+
+/// Grids for the nonlinear parameters of an effect, from the data: `(qualified name, values)`,
+/// searched one after the other; empty for an effect linear in its parameters.
 pub fn grid_for(
     spec: &PlantSpec,
     kind: EffectKind,
     d: &Prepared,
     raw: &Dataset,
-) -> Option<(String, Vec<f64>)> {
+) -> Vec<(String, Vec<f64>)> {
     let geom = |lo: f64, hi: f64, n: usize| -> Vec<f64> {
         (0..n)
             .map(|i| lo * (hi / lo).powf(i as f64 / (n - 1) as f64))
@@ -696,10 +938,10 @@ pub fn grid_for(
     match kind {
         EffectKind::Stribeck => {
             let vmax = abs_quantile(&d.v, 0.95).max(1e-12);
-            Some((
+            vec![(
                 format!("stribeck.velocity_pos{}", velocity_suffix(spec)),
                 geom(vmax * 0.01, vmax * 0.5, 10),
-            ))
+            )]
         }
         EffectKind::Hysteresis => {
             let umax = abs_quantile(&raw.input, 0.95).max(1e-12);
@@ -715,27 +957,75 @@ pub fn grid_for(
                 }
                 _ => umax,
             };
-            Some((
+            vec![(
                 format!("hysteresis.width{}", force_suffix(spec)),
                 geom(scale * 0.005, scale * 0.6, 12),
-            ))
+            )]
         }
         EffectKind::Deadzone => {
             let umax = abs_quantile(&raw.input, 0.95).max(1e-12);
-            Some((
+            vec![(
                 format!("deadzone.threshold{}", spec.command.suffix_and_unit().0),
                 geom(umax * 0.003, umax * 0.4, 12),
-            ))
+            )]
         }
-        EffectKind::SupplyGain => Some((
+        EffectKind::SupplyGain => vec![(
             "supply_gain.exponent".to_string(),
             (0..=20).map(|i| i as f64 * 0.25).collect(),
-        )),
-        EffectKind::DeadTime => Some((
+        )],
+        EffectKind::DeadTime => vec![(
             "dead_time.delay_s".to_string(),
             (1..=12).map(|i| i as f64 * d.dt).collect(),
-        )),
-        _ => None,
+        )],
+        EffectKind::Payload => {
+            // The clamp must act inside the record, or the payload is a spring.
+            let ymax = abs_quantile(&d.y, 0.98).max(1e-12);
+            vec![(
+                format!("payload.full_scale{}", pos_suffix(spec)),
+                geom(ymax * 0.1, ymax * 0.9, 12),
+            )]
+        }
+        EffectKind::Saturation => {
+            let unit = spec.command.suffix_and_unit().0;
+            let side = |sign: f64| -> Vec<f64> {
+                let mut x: Vec<f64> = raw
+                    .input
+                    .iter()
+                    .map(|u| u * sign)
+                    .filter(|u| *u > 0.0)
+                    .collect();
+                if x.len() < 20 {
+                    return Vec::new();
+                }
+                x.sort_by(f64::total_cmp);
+                [0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.94, 0.97, 0.99, 0.997]
+                    .iter()
+                    .map(|q| sign * x[((x.len() - 1) as f64 * q) as usize])
+                    .collect()
+            };
+            [("max", 1.0), ("min", -1.0)]
+                .into_iter()
+                .map(|(name, sign)| (format!("saturation.{name}{unit}"), side(sign)))
+                .filter(|(_, g)| !g.is_empty())
+                .collect()
+        }
+        EffectKind::Backlash => {
+            let span = 2.0 * abs_quantile(&d.y, 0.95).max(1e-12);
+            vec![(
+                format!("backlash.gap{}", pos_suffix(spec)),
+                geom(span * 2e-4, span * 0.05, 14),
+            )]
+        }
+        EffectKind::VaryingRatio => {
+            // Limits below the largest angle clip 1/cos θ; 1.5 rad leaves it unclipped.
+            let mut g: Vec<f64> = [0.5, 0.75, 0.9, 0.97]
+                .iter()
+                .map(|&q| abs_quantile(&d.y, q).min(1.5))
+                .collect();
+            g.push(1.5);
+            vec![(format!("varying_ratio.max_angle{}", pos_suffix(spec)), g)]
+        }
+        _ => Vec::new(),
     }
 }
 
@@ -759,24 +1049,67 @@ pub fn fit_spec(
 ) -> anyhow::Result<(PlantSpec, IdFit)> {
     let mut spec = spec.clone();
     let mut extra = 0;
-    for kind in spec.effects.iter().map(|e| e.kind).collect::<Vec<_>>() {
-        let Some((name, grid)) = grid_for(&spec, kind, d, raw) else {
-            continue;
-        };
-        let free = spec.params().iter().any(|(n, p)| *n == name && p.free);
-        if !free {
-            continue;
+    let is_free =
+        |spec: &PlantSpec, name: &str| spec.params().iter().any(|(n, p)| n == name && p.free);
+    let grids: Vec<(String, Vec<f64>)> = spec
+        .effects
+        .iter()
+        .flat_map(|e| grid_for(&spec, e.kind, d, raw))
+        .filter(|(name, _)| is_free(&spec, name))
+        .collect();
+    if spec
+        .effects
+        .iter()
+        .any(|e| e.kind == EffectKind::Saturation)
+    {
+        // Free limits start outside the commands, so that searching one leaves the other idle.
+        let unit = spec.command.suffix_and_unit().0;
+        let (lo, hi) = raw
+            .input
+            .iter()
+            .fold((0.0f64, 0.0f64), |(a, b), &u| (a.min(u), b.max(u)));
+        for (side, v) in [("min", lo - 1.0), ("max", hi + 1.0)] {
+            let key = format!("saturation.{side}{unit}");
+            if is_free(&spec, &key) {
+                spec.set(&key, v)?;
+            }
         }
+    }
+    for (name, grid) in grids {
         extra += 1;
-        let mut best: Option<(f64, f64)> = None;
-        for g in grid {
+        let score = |g: f64| -> anyhow::Result<Option<f64>> {
             let mut s = spec.clone();
             if set_nonlinear(&mut s, &name, g).is_err() {
-                continue;
+                return Ok(None);
             }
-            let fit = balance(&s, raw, d)?.fit(index, 0, d.n_eff_per_sample);
-            if best.is_none_or(|(r, _)| fit.rss < r) {
-                best = Some((fit.rss, g));
+            Ok(Some(
+                balance(&s, raw, d)?.fit(index, 0, d.n_eff_per_sample).rss,
+            ))
+        };
+        let mut best: Option<(f64, f64)> = None;
+        let mut at = 0;
+        for (i, &g) in grid.iter().enumerate() {
+            if let Some(rss) = score(g)? {
+                if best.is_none_or(|(r, _)| rss < r) {
+                    best = Some((rss, g));
+                    at = i;
+                }
+            }
+        }
+        // Refine between the neighbours of the best grid point.
+        if let Some((_, g0)) = best {
+            let lo = if at > 0 { grid[at - 1] } else { g0 };
+            let hi = grid.get(at + 1).copied().unwrap_or(g0);
+            for i in 1..REFINE {
+                let g = lo + (hi - lo) * i as f64 / REFINE as f64;
+                if g == g0 {
+                    continue;
+                }
+                if let Some(rss) = score(g)? {
+                    if best.is_none_or(|(r, _)| rss < r) {
+                        best = Some((rss, g));
+                    }
+                }
             }
         }
         if let Some((_, g)) = best {
@@ -805,6 +1138,15 @@ pub fn fit_spec(
                 v.clamp(lo, hi)
             };
             spec.set(name, v)?;
+        }
+    }
+    if let (true, Some((sp, sn))) = (bal.breakaway_free, fit.breakaway) {
+        let fsx = force_suffix(&spec);
+        for (side, v) in [("pos", sp), ("neg", sn)] {
+            let key = format!("stiction.breakaway_{side}{fsx}");
+            if is_free(&spec, &key) {
+                spec.set(&key, v)?;
+            }
         }
     }
     Ok((spec, fit))

@@ -1,0 +1,218 @@
+//! The inverse-dynamics form of `motor_gear`: the balance of torques on the load,
+//! `J_l θ_l'' + τ_f + T_load - τ_c = 0`, with `τ_c` the torque the gear transmits to the load.
+//!
+//! Only the load angle (and the armature current, when recorded) is measured, so `τ_c` comes from
+//! the drive side run on the measured signals: motor and gear as one body referred to the gear
+//! output (the motor shaft's torsion mode lies far above the filter corner), driven by the motor
+//! torque and tied to the measured load angle by the contact, a stiff spring-damper with the
+//! backlash dead zone (Bao et al. eq. 1-3). The contact pulls the drive side onto the measured
+//! load, so it does not drift as a free run in closed loop does; what it transmits is what the
+//! load balance needs. The drive-side constants are taken as given; the load side (inertia,
+//! friction, spring, payload, offset) is linear in its parameters, and the backlash play and the
+//! ratio limit of `varying_ratio` are searched on a grid.
+//!
+//! Backlash shows where the transmitted torque reverses: the load is free while the gear crosses
+//! the play, which a rigid contact cannot produce.
+
+use super::data::Dataset;
+use super::regress::{fixed_term, p, param_term, pos_suffix, shaped_command, supply_ratio, Term};
+use super::signals::{zero_phase, Prepared};
+use crate::physics::{CommandUnit, EffectKind, PlantSpec};
+
+/// Sub-steps of the drive side per sample: 0.1 ms at 1 kHz, against the contact mode of about
+/// 20 Hz and the armature's `L_a / R_a` of 0.3 ms (integrated exactly).
+const SUBSTEPS: usize = 10;
+
+/// Effects the `motor_gear` form can represent beyond the load-side ones of every family.
+/// With a measured current, what acts before the armature is invisible.
+pub fn representable(kind: EffectKind, d: &Prepared) -> bool {
+    use EffectKind as E;
+    matches!(kind, E::Backlash | E::VaryingRatio)
+        || (d.current.is_none()
+            && (matches!(kind, E::Deadzone | E::DeadTime | E::Saturation)
+                || kind == E::SupplyGain && d.supply.is_some()))
+}
+
+/// Inertia and transmitted-torque terms of the load balance.
+pub fn drive_terms(
+    spec: &PlantSpec,
+    raw: &Dataset,
+    d: &Prepared,
+    terms: &mut Vec<Term>,
+    nonlinear: &mut Vec<(String, f64)>,
+) -> anyhow::Result<()> {
+    terms.push(param_term(
+        spec,
+        "motor_gear.load_inertia_kg_m2",
+        d.a.clone(),
+    ));
+    let pos = pos_suffix(spec);
+    for (kind, key) in [
+        (EffectKind::Backlash, format!("backlash.gap{pos}")),
+        (
+            EffectKind::VaryingRatio,
+            format!("varying_ratio.max_angle{pos}"),
+        ),
+        (EffectKind::SupplyGain, "supply_gain.exponent".to_string()),
+        (EffectKind::DeadTime, "dead_time.delay_s".to_string()),
+    ] {
+        if spec.effects.iter().any(|e| e.kind == kind) {
+            nonlinear.push((key.clone(), p(spec, &key)));
+        }
+    }
+    let unit = spec.command.suffix_and_unit().0;
+    if spec.effects.iter().any(|e| e.kind == EffectKind::Deadzone) {
+        let key = format!("deadzone.threshold{unit}");
+        nonlinear.push((key.clone(), p(spec, &key)));
+    }
+    if spec
+        .effects
+        .iter()
+        .any(|e| e.kind == EffectKind::Saturation)
+    {
+        for side in ["max", "min"] {
+            let key = format!("saturation.{side}{unit}");
+            nonlinear.push((key.clone(), p(spec, &key)));
+        }
+    }
+    let tau = transmitted_torque(spec, raw, d.dt)?;
+    let filtered = zero_phase(&tau, d.cutoff_hz, d.dt);
+    terms.push(fixed_term(
+        "transmitted torque",
+        filtered.into_iter().map(|t| -t).collect(),
+    ));
+    Ok(())
+}
+
+/// Drive-side constants, referred to the gear output.
+struct Drive {
+    r: f64,
+    l: f64,
+    ke: f64,
+    kt: f64,
+    jm: f64,
+    h0: f64,
+    jg: f64,
+    kg: f64,
+    cg: f64,
+    supply_v: f64,
+    half_gap: Option<f64>,
+    max_angle: Option<f64>,
+    exponent: Option<f64>,
+}
+
+impl Drive {
+    fn of(spec: &PlantSpec) -> Drive {
+        let g = |n: &str| p(spec, &format!("motor_gear.{n}"));
+        let has = |k: EffectKind| spec.effects.iter().any(|e| e.kind == k);
+        let pos = pos_suffix(spec);
+        Drive {
+            r: g("resistance_ohm"),
+            l: g("inductance_h"),
+            ke: g("back_emf_v_s_per_rad"),
+            kt: g("torque_constant_nm_per_a"),
+            jm: g("motor_inertia_kg_m2"),
+            h0: g("ratio"),
+            jg: g("gear_inertia_kg_m2"),
+            kg: g("contact_stiffness_nm_per_rad"),
+            cg: g("contact_damping_nm_s_per_rad"),
+            supply_v: g("supply_voltage_v"),
+            half_gap: has(EffectKind::Backlash)
+                .then(|| 0.5 * p(spec, &format!("backlash.gap{pos}"))),
+            max_angle: has(EffectKind::VaryingRatio)
+                .then(|| p(spec, &format!("varying_ratio.max_angle{pos}"))),
+            exponent: has(EffectKind::SupplyGain).then(|| p(spec, "supply_gain.exponent")),
+        }
+    }
+
+    /// Ratio `h = h_0 / cos θ_l` (`|θ_l|` limited) and its rate `ḣ` at load angle and speed.
+    #[inline]
+    fn ratio(&self, th: f64, w: f64) -> (f64, f64) {
+        match self.max_angle {
+            Some(m) if th.abs() < m => {
+                let c = th.cos();
+                // h = h_0 / cos θ, dh/dt = h_0 sin θ / cos² θ · θ'
+                (self.h0 / c, self.h0 * th.sin() / (c * c) * w)
+            }
+            Some(m) => (self.h0 / m.cos(), 0.0),
+            None => (self.h0, 0.0),
+        }
+    }
+
+    /// Contact torque from gear to load for twist `Δ = θ_g - θ_l` and its rate (Bao et al.
+    /// eq. 1-2: a spring-damper, or a dead zone of half width `b` with one-sided contact).
+    #[inline]
+    fn contact(&self, twist: f64, rate: f64) -> f64 {
+        match self.half_gap {
+            None => self.kg * twist + self.cg * rate,
+            Some(b) if twist >= b => (self.kg * (twist - b) + self.cg * rate).max(0.0),
+            Some(b) if twist <= -b => (self.kg * (twist + b) + self.cg * rate).min(0.0),
+            Some(_) => 0.0,
+        }
+    }
+}
+
+/// The torque the gear transmits to the load at each sample, from the drive side run on the
+/// measured load angle (linear between samples) and the drive signal: the measured current, or
+/// the armature voltage after the power stage, or the commanded torque.
+pub fn transmitted_torque(spec: &PlantSpec, raw: &Dataset, dt: f64) -> anyhow::Result<Vec<f64>> {
+    let c = Drive::of(spec);
+    if !(c.r > 0.0 && c.l > 0.0 && c.jg > 0.0 && c.h0 > 0.0) {
+        anyhow::bail!("motor_gear: resistance, inductance, gear inertia and ratio must be > 0");
+    }
+    let n = raw.len();
+    let torque_input = spec.command == CommandUnit::NewtonMetre;
+    let u = shaped_command(spec, raw, dt);
+    let supply = supply_ratio(spec, raw);
+    let current = if torque_input {
+        None
+    } else {
+        raw.current.as_ref()
+    };
+    let hs = dt / SUBSTEPS as f64;
+    let decay = (-hs * c.r / c.l).exp();
+    let y = &raw.output;
+    let mut th_g = y.first().copied().unwrap_or(0.0);
+    let mut w_g = 0.0;
+    let mut i = current.and_then(|c| c.first().copied()).unwrap_or(0.0);
+    let mut out = vec![0.0; n];
+    for k in 0..n {
+        let next = (k + 1).min(n - 1);
+        let (y0, y1) = (y[k], y[next]);
+        let w_l = (y1 - y0) / dt;
+        // Power stage as in the plant: the H-bridge limits the voltage to the supply.
+        let drive = if torque_input {
+            u[k]
+        } else {
+            let r = supply[k];
+            match c.exponent {
+                Some(kappa) => u[k].clamp(-c.supply_v, c.supply_v) * r.max(0.0).powf(kappa),
+                None => u[k].clamp(-c.supply_v * r, c.supply_v * r),
+            }
+        };
+        for s in 0..SUBSTEPS {
+            let frac = s as f64 / SUBSTEPS as f64;
+            let th_l = y0 + frac * (y1 - y0);
+            let (h, h_rate) = c.ratio(th_l, w_l);
+            let tc = c.contact(th_g - th_l, w_g - w_l);
+            if s == 0 {
+                out[k] = tc;
+            }
+            let tm = match (torque_input, current) {
+                (true, _) => drive,
+                (false, Some(cur)) => c.kt * (cur[k] + frac * (cur[next] - cur[k])),
+                (false, None) => c.kt * i,
+            };
+            // (J_g + h² J_m) ω_g' = h τ_m - h J_m ḣ ω_g - τ_c (rigid motor shaft, ω_m = h ω_g)
+            let acc = (h * tm - h * c.jm * h_rate * w_g - tc) / (c.jg + h * h * c.jm);
+            w_g += hs * acc;
+            th_g += hs * w_g;
+            if !torque_input && current.is_none() {
+                // L_a I' = U - R_a I - K_e h ω_g, exact for the sub-step with ω_g held.
+                let i_ss = (drive - c.ke * h * w_g) / c.r;
+                i = i_ss + (i - i_ss) * decay;
+            }
+        }
+    }
+    Ok(out)
+}
