@@ -5,6 +5,8 @@
 //!
 //! The always-on suite runs one seed per case on 12 s of data; `hidden_effects_sweep`
 //! (`cargo test --release --test lab_hidden_effects -- --ignored`) runs more seeds and longer data.
+//! `LAB_ONLY=motor_gear,Breakaway` runs the cases whose label contains one of the words;
+//! `LAB_VERBOSE=1` prints every candidate.
 
 use actuatord::lab::diagnose::{diagnose, DiagnoseOptions};
 use actuatord::lab::regress::fit_spec;
@@ -31,46 +33,75 @@ impl Lcg {
 fn add(spec: &mut PlantSpec, kind: EffectKind, g: &mut Lcg) {
     spec.add_effect(kind).expect("effect supported");
     let fam = spec.family;
-    let lin = fam != Family::MotorGear;
-    let f = 1.0;
+    let mg = fam == Family::MotorGear;
+    // Key suffixes of force, damping, stiffness, position, velocity.
+    let (fs, ds, ss, ps, vs) = if mg {
+        ("_nm", "_nm_s_per_rad", "_nm_per_rad", "_rad", "_rad_per_s")
+    } else {
+        ("_n", "_n_s_per_m", "_n_per_m", "_m", "_m_per_s")
+    };
     let set = |s: &mut PlantSpec, k: &str, v: f64| s.set(k, v).expect(k);
-    let _ = lin;
     match kind {
         EffectKind::Viscous => {
             let d = match fam {
                 Family::Pneumatic => g.range(8.0, 12.0),
                 Family::Solenoid => g.range(15.0, 25.0),
-                _ => g.range(3.0, 6.0),
+                Family::MotorGear => g.range(0.05, 0.1),
+                Family::LinearAxis => g.range(3.0, 6.0),
             };
-            set(spec, "viscous.damping_pos_n_s_per_m", d);
-            set(spec, "viscous.damping_neg_n_s_per_m", d * g.range(0.8, 1.2));
+            set(spec, &format!("viscous.damping_pos{ds}"), d);
+            set(
+                spec,
+                &format!("viscous.damping_neg{ds}"),
+                d * g.range(0.8, 1.2),
+            );
         }
         EffectKind::Coulomb => {
             let c = match fam {
                 Family::Pneumatic => g.range(0.25, 0.4),
                 Family::Solenoid => g.range(1.0, 1.6),
-                _ => g.range(0.8, 1.4),
-            } * f;
-            set(spec, "coulomb.coulomb_pos_n", c);
-            set(spec, "coulomb.coulomb_neg_n", c * g.range(0.7, 1.3));
+                Family::MotorGear => g.range(0.3, 0.5),
+                Family::LinearAxis => g.range(0.8, 1.4),
+            };
+            set(spec, &format!("coulomb.coulomb_pos{fs}"), c);
+            set(
+                spec,
+                &format!("coulomb.coulomb_neg{fs}"),
+                c * g.range(0.7, 1.3),
+            );
+        }
+        EffectKind::Stiction => {
+            // Breakaway clearly above the Coulomb level of each direction.
+            let scale = if mg { 0.3 } else { 1.0 };
+            for side in ["pos", "neg"] {
+                let c = spec
+                    .get(&format!("coulomb.coulomb_{side}{fs}"))
+                    .unwrap_or(0.0);
+                set(
+                    spec,
+                    &format!("stiction.breakaway_{side}{fs}"),
+                    c + scale * g.range(0.6, 1.0),
+                );
+            }
         }
         EffectKind::Stribeck => {
-            set(spec, "stribeck.excess_pos_n", g.range(1.5, 2.5));
-            set(spec, "stribeck.excess_neg_n", g.range(1.5, 2.5));
-            let vs = g.range(0.04, 0.07);
-            set(spec, "stribeck.velocity_pos_m_per_s", vs);
-            set(spec, "stribeck.velocity_neg_m_per_s", vs);
+            set(spec, &format!("stribeck.excess_pos{fs}"), g.range(1.5, 2.5));
+            set(spec, &format!("stribeck.excess_neg{fs}"), g.range(1.5, 2.5));
+            let v = g.range(0.04, 0.07);
+            set(spec, &format!("stribeck.velocity_pos{vs}"), v);
+            set(spec, &format!("stribeck.velocity_neg{vs}"), v);
         }
         EffectKind::Spring => {
             let c = match fam {
                 Family::Pneumatic => g.range(60.0, 100.0),
                 Family::Solenoid => g.range(1500.0, 1800.0),
-                _ => g.range(30.0, 50.0),
+                Family::MotorGear => g.range(1.0, 2.0),
+                Family::LinearAxis => g.range(30.0, 50.0),
             };
-            set(spec, "spring.stiffness_n_per_m", c);
+            set(spec, &format!("spring.stiffness{ss}"), c);
             set(
                 spec,
-                "spring.pretension_n",
+                &format!("spring.pretension{fs}"),
                 if fam == Family::Pneumatic {
                     -c * 0.01
                 } else {
@@ -78,13 +109,44 @@ fn add(spec: &mut PlantSpec, kind: EffectKind, g: &mut Lcg) {
                 },
             );
         }
-        EffectKind::Offset => set(
-            spec,
-            "offset.bias_n",
-            g.range(1.0, 1.6)
-                * if g.next() > 0.5 { 1.0 } else { -1.0 }
-                * if fam == Family::Pneumatic { 0.3 } else { 1.0 },
-        ),
+        EffectKind::Offset => {
+            let level = match fam {
+                Family::Pneumatic => 0.3,
+                Family::MotorGear => 0.8,
+                _ => 1.0,
+            };
+            let sign = if g.next() > 0.5 { 1.0 } else { -1.0 };
+            set(
+                spec,
+                &format!("offset.bias{fs}"),
+                g.range(1.0, 1.6) * level * sign,
+            );
+        }
+        EffectKind::Payload => {
+            // Full load reached well inside the travel, so the load saturates in the record.
+            let (load, full) = match fam {
+                Family::MotorGear => (g.range(0.8, 1.2), g.range(0.15, 0.25)),
+                _ => (g.range(3.0, 5.0), g.range(0.03, 0.05)),
+            };
+            set(spec, &format!("payload.max_load{fs}"), load);
+            set(spec, &format!("payload.full_scale{ps}"), full);
+        }
+        EffectKind::Saturation => {
+            let unit = spec.command.suffix_and_unit().0;
+            // Below the peaks of the command, so that the drive clips now and then.
+            let level = match fam {
+                Family::MotorGear => g.range(7.0, 9.0),
+                _ => g.range(4.5, 5.5),
+            };
+            set(spec, &format!("saturation.max{unit}"), level);
+            set(
+                spec,
+                &format!("saturation.min{unit}"),
+                -level * g.range(0.9, 1.1),
+            );
+        }
+        EffectKind::Backlash => set(spec, &format!("backlash.gap{ps}"), g.range(0.004, 0.008)),
+        EffectKind::VaryingRatio => set(spec, &format!("varying_ratio.max_angle{ps}"), 1.3),
         EffectKind::Hysteresis => set(spec, "hysteresis.width_n", g.range(2.0, 3.0)),
         EffectKind::DirectionAsymmetry => {
             set(spec, "direction_asymmetry.gain_neg", g.range(0.6, 0.75))
@@ -111,17 +173,37 @@ fn sensor(spec: &mut PlantSpec, seed: u64) {
         Family::Pneumatic | Family::Solenoid => (1e-6, 5e-7),
         _ => (1e-5, 5e-6),
     };
-    spec.set("sensor.position_quantum_m", q).expect("quantum");
-    spec.set("sensor.position_noise_m", noise).expect("noise");
-    if spec.family == Family::Solenoid {
+    // An axis encoder of 2^19 counts per turn on the load of motor_gear.
+    let unit = if spec.family == Family::MotorGear {
+        "rad"
+    } else {
+        "m"
+    };
+    spec.set(&format!("sensor.position_quantum_{unit}"), q)
+        .expect("quantum");
+    spec.set(&format!("sensor.position_noise_{unit}"), noise)
+        .expect("noise");
+    if matches!(spec.family, Family::Solenoid | Family::MotorGear) {
         spec.set("sensor.current_quantum_a", 1e-3).expect("iq");
         spec.set("sensor.current_noise_a", 2e-3).expect("in");
     }
 }
 
-/// Run the plant in closed loop (PID on position) following a smooth random reference; the
-/// supply varies slowly when `vary_supply`.
-fn closed_loop(spec: &PlantSpec, seed: u64, seconds: f64, vary_supply: bool) -> Dataset {
+/// How the record is made.
+#[derive(Clone, Copy, PartialEq, Debug)]
+enum Run {
+    /// Closed loop (PID on position) following a smooth random reference.
+    Track,
+    /// The same, with a reference that rests at its peaks: the actuator stops and starts.
+    Dwell,
+    /// A breakaway experiment: the drive swings slowly in open loop (with a small dither), so the
+    /// actuator rests while the force builds up and breaks away at each reversal.
+    Breakaway,
+}
+
+/// Record the plant; the supply varies slowly when `vary_supply`.
+fn closed_loop(spec: &PlantSpec, seed: u64, seconds: f64, vary_supply: bool, run: Run) -> Dataset {
+    let dwell = run == Run::Dwell;
     let dt = 1e-3;
     let n = (seconds / dt) as usize;
     let mut plant = spec.build().expect("plant builds");
@@ -130,7 +212,8 @@ fn closed_loop(spec: &PlantSpec, seed: u64, seconds: f64, vary_supply: bool) -> 
         Family::LinearAxis => (0.0, 0.12, 900.0, 3000.0, 50.0, -100.0, 100.0, 0.0),
         Family::Solenoid => (0.012, 0.005, 3000.0, 30000.0, 60.0, 0.0, 24.0, 0.0),
         Family::Pneumatic => (0.010, 0.006, 150.0, 0.0, 1.0, -1.0, 1.0, 0.0),
-        Family::MotorGear => unreachable!(),
+        // Load angle in rad, armature voltage in V; swings of ±0.7 rad make 1/cos θ visible.
+        Family::MotorGear => (0.0, 0.7, 60.0, 150.0, 1.5, -24.0, 24.0, 0.0),
     };
     let freqs: Vec<(f64, f64, f64)> = (0..3)
         .map(|i| {
@@ -148,7 +231,8 @@ fn closed_loop(spec: &PlantSpec, seed: u64, seconds: f64, vary_supply: bool) -> 
         input: Vec::with_capacity(n),
         output: Vec::with_capacity(n),
         supply: vary_supply.then(|| Vec::with_capacity(n)),
-        current: (spec.family == Family::Solenoid).then(|| Vec::with_capacity(n)),
+        current: matches!(spec.family, Family::Solenoid | Family::MotorGear)
+            .then(|| Vec::with_capacity(n)),
     };
     let nominal = match spec.family {
         Family::Pneumatic => 60_000.0,
@@ -158,13 +242,20 @@ fn closed_loop(spec: &PlantSpec, seed: u64, seconds: f64, vary_supply: bool) -> 
     let mut y = plant.measure().position;
     for k in 0..n {
         let t = k as f64 * dt;
+        let shape = freqs
+            .iter()
+            .map(|(f, a, p)| a * (2.0 * std::f64::consts::PI * f * t + p).sin())
+            .sum::<f64>()
+            / norm;
         let r = centre
             + amp
-                * freqs
-                    .iter()
-                    .map(|(f, a, p)| a * (2.0 * std::f64::consts::PI * f * t + p).sin())
-                    .sum::<f64>()
-                / norm;
+                * if dwell {
+                    // Rests at the peaks, left and reached with a smooth start: x / (1 + x⁸)^⅛.
+                    let x = 2.5 * shape;
+                    x / (1.0 + x.powi(8)).powf(0.125)
+                } else {
+                    shape
+                };
         let supply = if spec.family == Family::Pneumatic {
             // Low pressure between 40 and 80 kPa absolute.
             nominal + 20_000.0 * (2.0 * std::f64::consts::PI * 0.07 * t).sin()
@@ -178,7 +269,26 @@ fn closed_loop(spec: &PlantSpec, seed: u64, seconds: f64, vary_supply: bool) -> 
         let deriv = (e - e_prev) / dt;
         e_prev = e;
         let u_raw = u0 + kp * e + ki * integ + kd * deriv;
-        let u = u_raw.clamp(u_min, u_max);
+        let u = if run == Run::Breakaway {
+            // Slow swings of the drive, their amplitude varied, well above the breakaway level.
+            let (amp, f) = match spec.family {
+                Family::MotorGear => (2.0, 0.7),
+                _ => (3.0, 0.4),
+            };
+            // A small dither reverses the drive while moving too, as in friction experiments.
+            let tau = 2.0 * std::f64::consts::PI;
+            // A weak pull to the centre keeps asymmetric friction from walking the load into a
+            // stop.
+            let centring = match spec.family {
+                Family::MotorGear => 4.0,
+                _ => 10.0,
+            };
+            amp * (1.0 + 0.25 * (tau * 0.11 * t).sin()) * (tau * f * t).sin()
+                + 0.1 * amp * (tau * 6.0 * t).sin()
+                - centring * (y - centre)
+        } else {
+            u_raw.clamp(u_min, u_max)
+        };
         if u == u_raw {
             integ += e * dt;
         }
@@ -207,6 +317,7 @@ struct Case {
     truth: Vec<EffectKind>,
     hidden: Option<EffectKind>,
     supply: bool,
+    run: Run,
 }
 
 fn truth_of(family: Family) -> Vec<EffectKind> {
@@ -215,16 +326,29 @@ fn truth_of(family: Family) -> Vec<EffectKind> {
         Family::LinearAxis => vec![E::Viscous, E::Coulomb],
         Family::Solenoid => vec![E::Spring, E::Viscous, E::Coulomb],
         Family::Pneumatic => vec![E::Coulomb],
-        Family::MotorGear => vec![],
+        Family::MotorGear => vec![E::Viscous, E::Coulomb],
+    }
+}
+
+fn case(family: Family, hidden: Option<EffectKind>) -> Case {
+    Case {
+        family,
+        truth: truth_of(family),
+        hidden,
+        supply: hidden == Some(EffectKind::SupplyGain),
+        run: Run::Track,
     }
 }
 
 fn cases() -> Vec<Case> {
     use EffectKind as E;
     let mut v = Vec::new();
-    let la = Family::LinearAxis;
-    // An offset looks exactly like asymmetric Coulomb friction while sliding and like a spring's
-    // pretension, so it is not part of this suite.
+    let (la, so, pn, mg) = (
+        Family::LinearAxis,
+        Family::Solenoid,
+        Family::Pneumatic,
+        Family::MotorGear,
+    );
     for h in [
         E::Coulomb,
         E::Viscous,
@@ -234,39 +358,45 @@ fn cases() -> Vec<Case> {
         E::DirectionAsymmetry,
         E::Deadzone,
         E::PositionStiffness,
+        E::Saturation,
+        E::Payload,
     ] {
-        v.push(Case {
-            family: la,
-            truth: truth_of(la),
-            hidden: Some(h),
-            supply: false,
-        });
+        v.push(case(la, Some(h)));
     }
-    let so = Family::Solenoid;
+    // An offset on a body without dry friction (an air bearing). With Coulomb friction in the
+    // model an offset is asymmetric friction, at rest as well as sliding (docs/lab.md).
+    v.push(Case {
+        truth: vec![E::Viscous],
+        ..case(la, Some(E::Offset))
+    });
     for h in [E::Coulomb, E::Viscous, E::PositionStiffness] {
-        v.push(Case {
-            family: so,
-            truth: truth_of(so),
-            hidden: Some(h),
-            supply: false,
-        });
+        v.push(case(so, Some(h)));
     }
-    let pn = Family::Pneumatic;
     for h in [E::Coulomb, E::Spring, E::SupplyGain, E::Viscous] {
-        v.push(Case {
-            family: pn,
-            truth: truth_of(pn),
-            hidden: Some(h),
-            supply: h == E::SupplyGain,
-        });
+        v.push(case(pn, Some(h)));
     }
-    for f in [la, so, pn] {
-        v.push(Case {
-            family: f,
-            truth: truth_of(f),
-            hidden: None,
-            supply: false,
-        });
+    for h in [
+        E::Backlash,
+        E::VaryingRatio,
+        E::Coulomb,
+        E::Viscous,
+        E::Payload,
+    ] {
+        v.push(case(mg, Some(h)));
+    }
+    // Stiction is not in the suite: where it can be seen at all (a breakaway experiment, the
+    // `Breakaway` runs below), Stribeck friction, which raises the breakaway force as well,
+    // explains the same record (docs/lab.md).
+    for f in [la, so, pn, mg] {
+        v.push(case(f, None));
+    }
+    for f in [la, mg] {
+        for run in [Run::Dwell, Run::Breakaway] {
+            v.push(Case {
+                run,
+                ..case(f, None)
+            });
+        }
     }
     v
 }
@@ -292,11 +422,8 @@ fn run_case(c: &Case, seed: u64, seconds: f64) -> Row {
     for &e in &all {
         add(&mut truth, e, &mut g);
     }
-    if c.hidden == Some(EffectKind::Stribeck) && !all.contains(&EffectKind::Coulomb) {
-        unreachable!("stribeck sits on coulomb");
-    }
     sensor(&mut truth, seed);
-    let data = closed_loop(&truth, seed, seconds, c.supply);
+    let data = closed_loop(&truth, seed, seconds, c.supply, c.run);
     let prep = prepare(&data, None);
     // The model: the truth's family and effects without the hidden one, defaults, all free
     // except the drive constants that fix the scale.
@@ -312,16 +439,38 @@ fn run_case(c: &Case, seed: u64, seconds: f64) -> Row {
         if name.starts_with(c.family.name()) {
             let v = truth.get(&name).expect("known");
             model.spec.set(&name, v).expect("in bounds");
-            let reference = !name.ends_with("mass_kg");
+            let reference = !(name.ends_with("mass_kg") || name.ends_with("load_inertia_kg_m2"));
             model.spec.set_free(&name, !reference).expect("known");
         }
     }
     let opts = DiagnoseOptions::default();
     let dg = diagnose(&model, &data, &prep, &opts, &|_, _, _| {}).expect("diagnosis runs");
+    if std::env::var("LAB_VERBOSE").is_ok() {
+        for c in &dg.candidates {
+            eprintln!(
+                "    {:<20} NRMSE {:.4} drop {:+.3} held-out {:+.3} ΔBIC {:9.1} {} | {}",
+                c.effect,
+                c.nrmse,
+                c.improvement,
+                c.holdout_improvement,
+                c.delta_bic,
+                if c.significant { "*" } else { " " },
+                c.evidence
+            );
+        }
+    }
     let label = format!(
         "{:<12} {:<20} seed {seed}",
         c.family.name(),
-        c.hidden.map_or("(complete)", |h| h.name())
+        format!(
+            "{}{}",
+            c.hidden.map_or("(complete)", |h| h.name()),
+            match c.run {
+                Run::Track => "",
+                Run::Dwell => " dwell",
+                Run::Breakaway => " breakaway",
+            }
+        )
     );
     match c.hidden {
         Some(h) => {
@@ -348,12 +497,22 @@ fn run_case(c: &Case, seed: u64, seconds: f64) -> Row {
 }
 
 fn run_all(seeds: &[u64], seconds: f64) {
+    let only = std::env::var("LAB_ONLY").unwrap_or_default();
     let mut failures = Vec::new();
     eprintln!(
         "{:<48} {:>10} {:>12}  verdict",
         "case", "base NRMSE", "with NRMSE"
     );
     for c in cases() {
+        let name = format!(
+            "{} {:?} {:?}",
+            c.family.name(),
+            c.hidden.map(|h| h.name()),
+            c.run
+        );
+        if !only.is_empty() && !only.split(',').any(|o| name.contains(o)) {
+            continue;
+        }
         for &seed in seeds {
             let r = run_case(&c, seed, seconds);
             eprintln!(
@@ -380,7 +539,11 @@ fn hidden_effects_are_named_and_complete_models_get_none() {
 #[test]
 #[ignore = "sweep over seeds and longer data; run with --release -- --ignored"]
 fn hidden_effects_sweep() {
-    run_all(&[2, 3, 4, 5], 30.0);
+    let seeds: Vec<u64> = std::env::var("LAB_SEEDS")
+        .ok()
+        .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
+        .unwrap_or_else(|| vec![2, 3, 4, 5]);
+    run_all(&seeds, 30.0);
 }
 
 /// Writes the walkthrough's example data (`docs/lab.md`): a solenoid with coulomb friction, in
@@ -397,7 +560,7 @@ fn example_data() {
         add(&mut truth, e, &mut g);
     }
     sensor(&mut truth, 42);
-    let data = closed_loop(&truth, 42, 20.0, false);
+    let data = closed_loop(&truth, 42, 20.0, false, Run::Track);
     let path = std::path::Path::new(&dir).join("solenoid.csv");
     std::fs::write(&path, actuatord::lab::data::to_csv(&data)).expect("writes");
 }
