@@ -246,12 +246,10 @@ fn k_step(
 
 /// The mode used when the user asks for none: inverse dynamics wherever the family has it
 /// (closed-loop data of integrating plants make free-run numbers meaningless), else free run.
-pub fn default_mode(model: &Model) -> Mode {
-    if model.spec.family == crate::physics::Family::MotorGear {
-        Mode::FreeRun
-    } else {
-        Mode::InverseDynamics
-    }
+pub fn default_mode(_model: &Model) -> Mode {
+    // Every family has its balance of forces now (motor_gear through the transmitted torque of
+    // `regress_gear`), and it is the one mode that does not drift in closed loop.
+    Mode::InverseDynamics
 }
 
 /// Prepare a data set for a model (filter corner from the data unless given).
