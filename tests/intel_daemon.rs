@@ -257,6 +257,27 @@ fn a_spring_drop_is_diagnosed_as_f2() {
     assert!(rig.emcys().iter().any(|(_, e)| e.error_code == 0xFF12));
 }
 
+#[test]
+fn a_sensor_offset_is_diagnosed_as_f5_and_announced() {
+    let mut c = config("solenoid.toml", "");
+    tour(&mut c, 130.0);
+    let mut rig = Rig::new(&c, "solenoid.toml", &["sensor_offset_0.0005@100s"]);
+    rig.run_until(100.0);
+    assert!(rig.emcys().is_empty(), "healthy: {:?}", rig.emcys());
+    // A reading 0.5 mm too high: the spring seems to pull less at the same position (F_0 -).
+    rig.run_until(130.0);
+    let s = rig.last_fault_state();
+    assert_eq!(s.diagnosed_fault, Some(SupervisedFault::SensorOffset));
+    assert_eq!(s.state, FaultState::MaintenanceRequested);
+    assert!(rig
+        .last_diagnosis()
+        .latched
+        .contains(SupervisedFault::SensorOffset));
+    assert!(rig.emcys().iter().any(
+        |(_, e)| e.error_code == 0xFF18 && e.supervised.contains(SupervisedFault::SensorOffset)
+    ));
+}
+
 /// The built-in table with the rows of F2 and F3 trading names.
 fn swapped_table() -> String {
     let f2 = "code = \"F2\"\nname = \"spring_stiffness\"";

@@ -8,7 +8,7 @@
 //! `p` over windows from what the daemon saw and sent. The healthy windows give the nominal values
 //! and their spread ([`NominalLearner`]); each fault's mean estimate against them, with the
 //! daemon's symptom test ([`symptoms`], its `symptom_sigmas` and `relative_floor`), gives the
-//! fault's pattern. (The daemon's own estimation is off in these runs, so its reactions to a
+//! fault's pattern; a sign counts only with a margin ([`TABLE_MARGIN`]) over its bound. (The daemon's own estimation is off in these runs, so its reactions to a
 //! diagnosis cannot change the data; limit violations only warn for the same reason.)
 //!
 //! Every fault the table names must have a distinct pattern: two of the paper's faults F1-F4
@@ -292,6 +292,9 @@ fn signs(s: &[Symptom; PHYSICAL_PARAMS]) -> Vec<String> {
 }
 
 /// Simulate, derive and check the table.
+/// A table entry is `+` or `-` only when the mean change exceeds its bound by this factor.
+pub const TABLE_MARGIN: f64 = 1.5;
+
 pub fn derive(options: &FaultTableOptions) -> Result<Derived, BenchError> {
     let sim = Simulation::new(options)?;
     let seed =
@@ -346,12 +349,20 @@ pub fn derive(options: &FaultTableOptions) -> Result<Derived, BenchError> {
             });
             continue;
         };
-        let s = symptoms(&mean, &nominal, &sim.thresholds);
+        let mut s = symptoms(&mean, &nominal, &sim.thresholds);
         let change = relative(&mean, &nominal);
         let mut bound = [0.0; PHYSICAL_PARAMS];
         for (j, b) in bound.iter_mut().enumerate() {
             *b = symptom_bound(&mean, &nominal, &sim.thresholds, j)
                 / nominal.p.values[j].abs().max(f64::MIN_POSITIVE);
+        }
+        // A sign enters the table only with a margin over its bound: a mean change just past it
+        // is one that single windows show half of the time, and a row built on it would not
+        // match what the daemon sees.
+        for (j, sym) in s.iter_mut().enumerate() {
+            if change[j].abs() < TABLE_MARGIN * bound[j] {
+                *sym = Symptom::Zero;
+            }
         }
         let row_of_pattern = patterns.iter().position(|p| *p == s);
         let own_row = entry
@@ -500,7 +511,8 @@ impl Derived {
              from the start; p = [T_I, D, w0, K_P, F_C, F_0] estimated as the daemon does over {} windows\n\
              per run (after {} s). Nominal: the healthy windows' mean and spread. A fault's\n\
              symptoms: its mean estimate against the nominal with the daemon's test,\n\
-             + / - when |p - p_nom| > max(k sigma, floor |p_nom|).\n\
+             + / - when |p - p_nom| > max(k sigma, floor |p_nom|), and in the table only when\n\
+             the change is more than {TABLE_MARGIN} times that bound (else single windows flip it).\n\
              relative_change = (p - p_nom) / |p_nom|; relative_bound = that bound / |p_nom|.\n\
              A fault whose pattern is a row's is listed under it (same_pattern): the diagnosis\n\
              names the row's fault for both.",

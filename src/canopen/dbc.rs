@@ -44,6 +44,7 @@ const VALUE_TABLES: [(&str, &[(u32, &str)]); 4] = [
             (5, "observer_friction"),
             (6, "estimator_implausible"),
             (7, "limit_violation"),
+            (8, "sensor_offset"),
         ],
     ),
 ];

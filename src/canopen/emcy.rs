@@ -37,6 +37,7 @@ pub fn supervised_error_code(fault: SupervisedFault) -> u16 {
         SupervisedFault::ObserverFriction => 0xFF15,
         SupervisedFault::EstimatorImplausible => 0xFF16,
         SupervisedFault::LimitViolation => 0xFF17,
+        SupervisedFault::SensorOffset => 0xFF18,
     }
 }
 
@@ -121,7 +122,7 @@ impl Emcy {
     }
 
     pub fn encode(&self, controller_node: u8) -> Frame {
-        let mut values = [0.0; 19];
+        let mut values = [0.0; 20];
         values[0] = f64::from(self.error_code);
         values[1] = f64::from(self.error_register);
         values[2] = f64::from(self.axis_node_id);
@@ -135,7 +136,7 @@ impl Emcy {
     }
 
     pub fn decode(frame: &Frame) -> Result<Self, DecodeError> {
-        let v: [f64; 19] = unpack(&EMCY, frame)?;
+        let v: [f64; 20] = unpack(&EMCY, frame)?;
         let mut flags = FaultFlags::default();
         for (value, kind) in v[3..11].iter().zip(FaultKind::ALL) {
             if *value != 0.0 {
@@ -156,7 +157,7 @@ impl Emcy {
             state: FaultState::from_code(v[11] as u8).ok_or_else(|| bad("fault_state", v[11]))?,
             diagnosed_fault: diagnosed_fault_from_code(v[12] as u8)
                 .ok_or_else(|| bad("diagnosed_fault", v[12]))?,
-            supervised: supervised_from(&v[13..19]),
+            supervised: supervised_from(&v[13..20]),
         })
     }
 }

@@ -63,13 +63,14 @@ pub const FAULT_FLAG_NAMES: [&str; 8] = [
 
 /// Signal names of the supervised-fault flags, bit 0 first: `fault_` and the name of
 /// `supervise::SupervisedFault` (without `limit_violation`, which the fault flags above detail).
-pub const SUPERVISED_FLAG_NAMES: [&str; 6] = [
+pub const SUPERVISED_FLAG_NAMES: [&str; 7] = [
     "fault_spring_pretension",
     "fault_spring_stiffness",
     "fault_friction_increase",
     "fault_current_gain",
     "fault_observer_friction",
     "fault_estimator_implausible",
+    "fault_sensor_offset",
 ];
 
 /// Signal names of the symptoms, in the order of `supervise::PHYSICAL_NAMES`.
@@ -155,9 +156,10 @@ macro_rules! fault_flags {
     };
 }
 
-/// Supervised-fault flag signals starting at `base`, in [`SUPERVISED_FLAG_NAMES`] order.
+/// Supervised-fault flag signals starting at `base`, in [`SUPERVISED_FLAG_NAMES`] order; the
+/// seventh (added later) at `seventh`, where the frame had room for it.
 macro_rules! supervised_flags {
-    ($base:expr) => {
+    ($base:expr, $seventh:expr) => {
         [
             flag(
                 $base,
@@ -189,6 +191,11 @@ macro_rules! supervised_flags {
                 "fault_estimator_implausible",
                 "drive-gain estimate implausible, scheduled gains in use",
             ),
+            flag(
+                $seventh,
+                "fault_sensor_offset",
+                "F5 diagnosed and latched: the position sensor reads with an offset",
+            ),
         ]
     };
 }
@@ -200,7 +207,7 @@ const STATE_COMMENT: &str =
 const DIAGNOSED_COMMENT: &str =
     "latest latched supervised fault: 0 none, 1 spring_pretension (F1), \
 2 spring_stiffness (F2), 3 friction_increase (F3), 4 current_gain (F4), 5 observer_friction, \
-6 estimator_implausible, 7 limit_violation";
+6 estimator_implausible, 7 limit_violation, 8 sensor_offset (F5)";
 
 const fn symptom(name: &'static str, start_bit: u16, comment: &'static str) -> Signal {
     Signal {
@@ -344,8 +351,8 @@ const FAULT_STATE_SIGNALS: [Signal; 12] = {
     ]
 };
 
-const FAULT_DIAGNOSIS_SIGNALS: [Signal; 18] = {
-    let f = supervised_flags!(16);
+const FAULT_DIAGNOSIS_SIGNALS: [Signal; 19] = {
+    let f = supervised_flags!(16, 23);
     [
         Signal::raw("axis_node_id", 0, 8, "node id of the axis' actuator node"),
         scaled(
@@ -369,6 +376,7 @@ const FAULT_DIAGNOSIS_SIGNALS: [Signal; 18] = {
         f[3],
         f[4],
         f[5],
+        f[6],
         Signal::raw(
             "observer_learned",
             22,
@@ -410,9 +418,9 @@ const FAULT_DIAGNOSIS_SIGNALS: [Signal; 18] = {
     ]
 };
 
-const EMCY_SIGNALS: [Signal; 19] = {
+const EMCY_SIGNALS: [Signal; 20] = {
     let f = fault_flags!(32);
-    let g = supervised_flags!(56);
+    let g = supervised_flags!(56, 62);
     [
         Signal::raw(
             "emcy_error_code",
@@ -443,6 +451,7 @@ const EMCY_SIGNALS: [Signal; 19] = {
         g[3],
         g[4],
         g[5],
+        g[6],
     ]
 };
 

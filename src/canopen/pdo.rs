@@ -28,16 +28,17 @@ pub fn diagnosed_fault_from_code(code: u8) -> Option<Option<SupervisedFault>> {
 
 /// The supervised faults with a flag of their own on the bus (limit violations are detailed by
 /// the limit fault flags).
-pub const SUPERVISED_FLAGGED: [SupervisedFault; 6] = [
+pub const SUPERVISED_FLAGGED: [SupervisedFault; 7] = [
     SupervisedFault::SpringPretension,
     SupervisedFault::SpringStiffness,
     SupervisedFault::FrictionIncrease,
     SupervisedFault::CurrentGain,
     SupervisedFault::ObserverFriction,
     SupervisedFault::EstimatorImplausible,
+    SupervisedFault::SensorOffset,
 ];
 
-pub(crate) fn supervised_values(faults: SupervisedFaults) -> [f64; 6] {
+pub(crate) fn supervised_values(faults: SupervisedFaults) -> [f64; 7] {
     SUPERVISED_FLAGGED.map(|f| if faults.contains(f) { 1.0 } else { 0.0 })
 }
 
@@ -395,6 +396,7 @@ impl FaultDiagnosisPdo {
                 g[3],
                 g[4],
                 g[5],
+                g[6],
                 bit(self.observer_learned),
                 y[0],
                 y[1],
@@ -419,20 +421,20 @@ impl FaultDiagnosisPdo {
     }
 
     pub fn decode(frame: &Frame) -> Result<Self, DecodeError> {
-        let v: [f64; 18] = unpack(&FAULT_DIAGNOSIS, frame)?;
+        let v: [f64; 19] = unpack(&FAULT_DIAGNOSIS, frame)?;
         let mut symptoms = [Symptom::Zero; PHYSICAL_PARAMS];
-        for (s, x) in symptoms.iter_mut().zip(&v[10..16]) {
+        for (s, x) in symptoms.iter_mut().zip(&v[11..17]) {
             *s = symptom_from(*x);
         }
         Ok(Self {
             axis_node_id: v[0] as u8,
             confidence: v[1],
             nominal_learned: v[2] != 0.0,
-            latched: supervised_from(&v[3..9]),
-            observer_learned: v[9] != 0.0,
+            latched: supervised_from(&v[3..10]),
+            observer_learned: v[10] != 0.0,
             symptoms,
-            observer_x4_pos: v[16],
-            observer_x4_neg: v[17],
+            observer_x4_pos: v[17],
+            observer_x4_neg: v[18],
         })
     }
 }
@@ -578,7 +580,11 @@ mod tests {
             diagnosed_fault_from_code(diagnosed_fault_code(Some(SupervisedFault::LimitViolation))),
             Some(Some(SupervisedFault::LimitViolation))
         );
-        assert_eq!(diagnosed_fault_from_code(8), None);
+        assert_eq!(
+            diagnosed_fault_from_code(8),
+            Some(Some(SupervisedFault::SensorOffset))
+        );
+        assert_eq!(diagnosed_fault_from_code(9), None);
     }
 
     #[test]

@@ -233,14 +233,14 @@ impl Estimation {
 }
 
 /// The supervised fault of a diagnosis; `None` for a fault the fault machine has no entry for
-/// (its symptoms are still on the bus).
+/// (its symptoms would still be on the bus).
 fn supervised(fault: DiagnosedFault) -> Option<SupervisedFault> {
     match fault {
         DiagnosedFault::SpringPretension => Some(SupervisedFault::SpringPretension),
         DiagnosedFault::SpringStiffness => Some(SupervisedFault::SpringStiffness),
         DiagnosedFault::FrictionIncrease => Some(SupervisedFault::FrictionIncrease),
         DiagnosedFault::CurrentGain => Some(SupervisedFault::CurrentGain),
-        DiagnosedFault::SensorOffset => None,
+        DiagnosedFault::SensorOffset => Some(SupervisedFault::SensorOffset),
     }
 }
 
@@ -739,7 +739,8 @@ impl Axis {
                     SupervisedFault::SpringPretension
                     | SupervisedFault::SpringStiffness
                     | SupervisedFault::FrictionIncrease
-                    | SupervisedFault::CurrentGain,
+                    | SupervisedFault::CurrentGain
+                    | SupervisedFault::SensorOffset,
                     Some(e),
                 ) => e.confidence,
                 _ => 1.0,

@@ -530,7 +530,8 @@ pub enum ReactionName {
 }
 
 /// `[axis.fault_reactions]`: one reaction per supervised fault; unnamed faults keep the default
-/// (diagnosed F1-F3 and the observer's friction rise: maintenance_requested; F4 current gain and
+/// (diagnosed F1-F3, F5 sensor offset and the observer's friction rise: maintenance_requested;
+/// F4 current gain and
 /// limit violations: fail_safe; an implausible estimator: warning).
 #[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -542,6 +543,7 @@ pub struct FaultReactionsSection {
     pub observer_friction: Option<ReactionName>,
     pub estimator_implausible: Option<ReactionName>,
     pub limit_violation: Option<ReactionName>,
+    pub sensor_offset: Option<ReactionName>,
 }
 
 #[derive(Debug, Clone, Deserialize, PartialEq)]
@@ -1140,6 +1142,7 @@ impl AxisConfig {
                 SupervisedFault::ObserverFriction => r.observer_friction,
                 SupervisedFault::EstimatorImplausible => r.estimator_implausible,
                 SupervisedFault::LimitViolation => r.limit_violation,
+                SupervisedFault::SensorOffset => r.sensor_offset,
             };
             if let Some(n) = named {
                 policy.reaction = match n {

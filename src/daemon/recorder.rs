@@ -41,7 +41,7 @@ const CYCLE_SCHEMA: &str = r#"{
     "following_error": {"type": "number", "description": "setpoint - position, m"},
     "fault_state": {"type": "integer", "description": "0 ok, 1 warning, 2 fail_safe, 3 maintenance_requested"},
     "fault_flags": {"type": "integer", "description": "bit per fault, order as in the DBC"},
-    "supervised_faults": {"type": "integer", "description": "latched supervised faults, bit per fault: spring_pretension, spring_stiffness, friction_increase, current_gain, observer_friction, estimator_implausible, limit_violation"},
+    "supervised_faults": {"type": "integer", "description": "latched supervised faults, bit per fault: spring_pretension, spring_stiffness, friction_increase, current_gain, observer_friction, estimator_implausible, limit_violation, sensor_offset"},
     "diagnosed_fault": {"type": "integer", "description": "0 none, else 1 + bit of the latest latched supervised fault"},
     "diagnosis_confidence": {"type": "number", "description": "0..1"},
     "symptoms": {"type": "array", "items": {"type": "integer"}, "description": "-1, 0, +1 per T_I, D, omega0, K_P, F_C, F_0"},

@@ -25,11 +25,13 @@ pub enum SupervisedFault {
     EstimatorImplausible,
     /// A limit check latched (following error, end of range, current, supply, timeouts).
     LimitViolation,
+    /// F5, from the parameter diagnosis: the position sensor reads with an offset.
+    SensorOffset,
 }
 
 impl SupervisedFault {
     /// Bit order of [`SupervisedFaults`].
-    pub const ALL: [SupervisedFault; 7] = [
+    pub const ALL: [SupervisedFault; 8] = [
         SupervisedFault::SpringPretension,
         SupervisedFault::SpringStiffness,
         SupervisedFault::FrictionIncrease,
@@ -37,6 +39,7 @@ impl SupervisedFault {
         SupervisedFault::ObserverFriction,
         SupervisedFault::EstimatorImplausible,
         SupervisedFault::LimitViolation,
+        SupervisedFault::SensorOffset,
     ];
 
     pub fn bit(self) -> u16 {
@@ -52,6 +55,7 @@ impl SupervisedFault {
             SupervisedFault::ObserverFriction => "observer_friction",
             SupervisedFault::EstimatorImplausible => "estimator_implausible",
             SupervisedFault::LimitViolation => "limit_violation",
+            SupervisedFault::SensorOffset => "sensor_offset",
         }
     }
 }
@@ -148,6 +152,7 @@ impl Default for FaultMachineConfig {
                 p(ObserverFriction, Maintenance, 1),
                 p(EstimatorImplausible, Warning, 10),
                 p(LimitViolation, FailSafe, 1),
+                p(SensorOffset, Maintenance, 1),
             ],
         }
     }
