@@ -365,7 +365,10 @@ pub fn diagnose(
     // motion.
     let samples = index.len() + base.standstill.len();
     let n_eff = (base.weighted_samples * d.n_eff_per_sample).max(10.0);
-    let base_holdout = holdout_rss(&model.spec, data, d, train, test)?;
+    // From the same starting point as every candidate: where a fixed column scales with a free
+    // parameter (the pneumatic c = m / τ), the fit depends on where it starts, and a baseline
+    // from the defaults would differ from the candidates by that alone.
+    let base_holdout = holdout_rss(&base_spec, data, d, train, test)?;
     let family = model.spec.family;
     let mut kinds = Vec::new();
     let mut not_assessed = Vec::new();

@@ -234,6 +234,20 @@ pub(super) fn shaped_command(spec: &PlantSpec, raw: &Dataset, dt: f64) -> Vec<f6
     u
 }
 
+/// A drive force held over each sample (zero-order hold), moved to the instant of the
+/// acceleration it is balanced against: `F_{k-1/2} = (F_{k-1} + F_k) / 2`.
+///
+/// The force `F_k` acts from `t_k` to `t_{k+1}`; the second central difference of the position
+/// weighs the accelerations of the holds `k-2 .. k+1` by `(1, 3, 3, 1) / 8`, centred half a sample
+/// before `t_k`. Without the shift the balance leaves `(T_0 / 2) F'` in the residual, which follows
+/// the sign of the drive change like the play of a hysteresis.
+fn held_force(mut f: Vec<f64>) -> Vec<f64> {
+    for k in (1..f.len()).rev() {
+        f[k] = 0.5 * (f[k - 1] + f[k]);
+    }
+    f
+}
+
 /// Build the balance of forces of `spec` on the data (raw and prepared).
 pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<Balance> {
     for e in &spec.effects {
@@ -372,9 +386,9 @@ fn body_drive_terms(
                     None => x.clamp(-vs * r, vs * r),
                 })
                 .collect();
-            (p(spec, &f("force_gain_n_per_v")), sig)
+            (p(spec, &f("force_gain_n_per_v")), held_force(sig))
         }
-        Family::LinearAxis => (1.0, u.clone()),
+        Family::LinearAxis => (1.0, held_force(u.clone())),
         Family::Solenoid => {
             let k_mag = p(spec, &f("force_constant_n_per_a"));
             match &raw.current {
