@@ -182,7 +182,7 @@ fn evidence(kind: EffectKind, base: &IdFit, data: &Dataset, d: &Prepared, unit: 
                 corr(&rr, &yy)
             };
             format!(
-                "residual bends with position: correlation with y {:+.2} for |y| below its                  median, {:+.2} above",
+                "residual bends with position: correlation with y {:+.2} for |y| below its median, {:+.2} above",
                 part(true),
                 part(false)
             )
@@ -194,7 +194,7 @@ fn evidence(kind: EffectKind, base: &IdFit, data: &Dataset, d: &Prepared, unit: 
                 .iter()
                 .fold((0.0f64, 0.0f64), |(a, b), &x| (a.max(x), b.max(-x)));
             format!(
-                "held at rest beyond the sliding friction: {held} of {} samples at rest need                  more, up to {up:.3e} {unit} positive and {down:.3e} negative over the band                  [-{:.3e}, {:.3e}]",
+                "held at rest beyond the sliding friction: {held} of {} samples at rest need more, up to {up:.3e} {unit} positive and {down:.3e} negative over the band [-{:.3e}, {:.3e}]",
                 base.standstill.len(),
                 base.band.1,
                 base.band.0
@@ -213,7 +213,7 @@ fn evidence(kind: EffectKind, base: &IdFit, data: &Dataset, d: &Prepared, unit: 
                 |k| data.input[k].abs() <= q,
             );
             format!(
-                "drive falls short at large commands: mean residual times sign(u) {hi:+.3e}                  {unit} where |u| is in its top 10 %, {lo:+.3e} elsewhere"
+                "drive falls short at large commands: mean residual times sign(u) {hi:+.3e} {unit} where |u| is in its top 10 %, {lo:+.3e} elsewhere"
             )
         }
         EffectKind::Backlash => {
@@ -239,7 +239,7 @@ fn evidence(kind: EffectKind, base: &IdFit, data: &Dataset, d: &Prepared, unit: 
                 (s / m.max(1) as f64).sqrt()
             };
             format!(
-                "residual bursts after drive reversals: RMS {:.3e} {unit} within 50 ms after one,                  {:.3e} elsewhere",
+                "residual bursts after drive reversals: RMS {:.3e} {unit} within 50 ms after one, {:.3e} elsewhere",
                 rms(&|k| since[k] < window),
                 rms(&|k| since[k] >= window)
             )
@@ -247,7 +247,7 @@ fn evidence(kind: EffectKind, base: &IdFit, data: &Dataset, d: &Prepared, unit: 
         EffectKind::VaryingRatio => {
             let drive = d.current.as_ref().unwrap_or(&d.u);
             format!(
-                "drive gain grows with the load angle: correlation of the residual with                  (1/cos θ - 1)·D {:+.2}",
+                "drive gain grows with the load angle: correlation of the residual with (1/cos θ - 1)·D {:+.2}",
                 corr(r, &at(&|k| (1.0 / d.y[k].cos() - 1.0) * drive[k]))
             )
         }

@@ -4,11 +4,12 @@
 #[derive(Debug, thiserror::Error)]
 pub enum PhysicsError {
     /// The plant file could not be read.
-    #[error("{origin}: cannot read: {source}")]
+    /// The I/O error is part of the message, not a separate cause, so that a chain printed with
+    /// `{:#}` names it once.
+    #[error("{origin}: cannot read: {error}")]
     Io {
         origin: String,
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The plant file is not valid TOML.
     #[error("{origin}: not valid TOML: {message}")]

@@ -123,9 +123,9 @@ pub fn load_plant(path: &std::path::Path) -> Result<Box<dyn Plant>, PhysicsError
 /// Read a plant file into a [`PlantSpec`] (for the lab, to change effects or parameters).
 pub fn load_spec(path: &std::path::Path) -> Result<PlantSpec, PhysicsError> {
     let origin = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| PhysicsError::Io {
+    let text = std::fs::read_to_string(path).map_err(|error| PhysicsError::Io {
         origin: origin.clone(),
-        source,
+        error,
     })?;
     PlantSpec::from_toml(&text, &origin)
 }
