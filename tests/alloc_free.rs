@@ -187,23 +187,12 @@ fn new_control_algorithms_do_not_allocate() {
         min_count: 1,
     })
     .expect("ok");
-    let mut ad = PneumaticAdaptive::new(&PneumaticAdaptiveConfig {
-        period_s: 0.02,
-        schedule: vec![point(60_000.0, 0.03)],
-        effort_weight_m2: 1e-7,
-        adapt: true,
-        forgetting: 0.975,
-        supervision: EstimatorSupervisorConfig {
-            min_input: 0.1,
-            min_output_step: 1e-6,
-            min_updates: 4,
-            eigenvalue_valid: 0.5,
-            plausible: vec![(0.005, 0.1)],
-        },
-        deadband_m: 1e-6,
-        output_min: -1.0,
-        output_max: 1.0,
-    })
+    let mut ad = PneumaticAdaptive::new(&PneumaticAdaptiveConfig::membrane_drive(
+        0.02,
+        vec![point(60_000.0, 0.03)],
+        1e-7,
+        true,
+    ))
     .expect("ok");
     let mut y_pn = 0.008;
     let n = count(|k| {

@@ -15,8 +15,8 @@ use crate::control::{
 };
 use crate::physics::{plant_from_str, Fault, FaultKind};
 use crate::supervise::{
-    diagnose, symptoms, DiagnosedFault, Diagnosis, DisturbanceObserver, EstimatorSupervisorConfig,
-    FaultSymptomTable, ObserverConfig, PhysicalEstimate,
+    diagnose, symptoms, DiagnosedFault, Diagnosis, DisturbanceObserver, FaultSymptomTable,
+    ObserverConfig, PhysicalEstimate,
 };
 
 /// The shipped solenoid plant (`config/plants/solenoid.toml`).
@@ -209,23 +209,12 @@ pub fn pneumatic_settling(
         PneumaticStrategy::Scheduled => PNEUMATIC_SUPPLIES_PA.iter().map(|&p| point(p)).collect(),
         PneumaticStrategy::Adaptive => vec![point(60_000.0)],
     };
-    let mut ctl = PneumaticAdaptive::new(&PneumaticAdaptiveConfig {
-        period_s: t0,
+    let mut ctl = PneumaticAdaptive::new(&PneumaticAdaptiveConfig::membrane_drive(
+        t0,
         schedule,
-        effort_weight_m2: r,
-        adapt: strategy == PneumaticStrategy::Adaptive,
-        forgetting: 0.975,
-        supervision: EstimatorSupervisorConfig {
-            min_input: 0.15,
-            min_output_step: 2e-6,
-            min_updates: 4,
-            eigenvalue_valid: 0.5,
-            plausible: vec![(0.005, 0.1)],
-        },
-        deadband_m: 1e-6,
-        output_min: -1.0,
-        output_max: 1.0,
-    })?;
+        r,
+        strategy == PneumaticStrategy::Adaptive,
+    ))?;
     let hold = (1.5 / t0).round() as usize;
     let base = 0.008;
     let mut setpoints = vec![base];

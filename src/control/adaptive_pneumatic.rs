@@ -41,6 +41,36 @@ pub struct PneumaticAdaptiveConfig {
     pub output_max: f64,
 }
 
+impl PneumaticAdaptiveConfig {
+    /// The paper's membrane drive: forgetting 0.975, duty limits ±1, a 1 µm deadband, and
+    /// estimator supervision that waits for duty steps of 0.15 and moves of 2 µm over at least
+    /// four updates, with `K_I` plausible between 5 and 100 mm/s.
+    pub fn membrane_drive(
+        period_s: f64,
+        schedule: Vec<SchedulePoint>,
+        effort_weight_m2: f64,
+        adapt: bool,
+    ) -> Self {
+        PneumaticAdaptiveConfig {
+            period_s,
+            schedule,
+            effort_weight_m2,
+            adapt,
+            forgetting: 0.975,
+            supervision: EstimatorSupervisorConfig {
+                min_input: 0.15,
+                min_output_step: 2e-6,
+                min_updates: 4,
+                eigenvalue_valid: 0.5,
+                plausible: vec![(0.005, 0.1)],
+            },
+            deadband_m: 1e-6,
+            output_min: -1.0,
+            output_max: 1.0,
+        }
+    }
+}
+
 /// Where the gains in use come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum GainSource {
