@@ -2,6 +2,8 @@
 //! `[axis.controller] state_space_file`, run by the controller node against the simulated
 //! motor_gear node, frame by frame through the codec (lock-step, no clocks).
 
+mod robust_common;
+
 use actuatord::daemon::Config;
 use actuatord::lockstep::LockStep;
 use std::path::Path;
@@ -16,17 +18,7 @@ fn the_designed_controller_runs_in_the_daemon_and_tracks_the_schedule() {
     actuatord::design::write_controller_toml(&design, &controller).expect("write controller");
 
     let text = std::fs::read_to_string(root.join("config/motor_gear.toml")).expect("config");
-    let text: String = text
-        .lines()
-        .filter(|l| !l.starts_with("q_per_m") && !l.starts_with("p = "))
-        .map(|l| {
-            if l == "[axis.controller]" {
-                format!("{l}\nstate_space_file = \"controller.toml\"\n")
-            } else {
-                format!("{l}\n")
-            }
-        })
-        .collect();
+    let text = robust_common::motor_gear_with_state_space_controller(&text);
     let config_path = dir.path().join("motor_gear_robust.toml");
     std::fs::write(&config_path, &text).expect("write config");
     let config = Config::load(&config_path).expect("config with the state-space controller");

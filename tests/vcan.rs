@@ -5,6 +5,8 @@
 //! `scripts/vcan-run`, which provides them on kernels without CAN. Ignored in a plain
 //! `cargo test`; `scripts/test` runs it with `--ignored`.
 
+mod robust_common;
+
 use actuatord::bus::{parse_candump_line, Frame};
 use actuatord::canopen::{Emcy, FaultStatePdo, LoopStatusPdo, SensorPdo};
 use actuatord::supervise::{FaultKind, FaultState};
@@ -751,17 +753,7 @@ fn the_robust_controller_runs_over_vcan_against_the_motor_gear_node() {
         .expect("actuator design runs");
     assert!(status.success());
     let text = std::fs::read_to_string(root("config/motor_gear.toml")).expect("config");
-    let text: String = text
-        .lines()
-        .filter(|l| !l.starts_with("q_per_m") && !l.starts_with("p = "))
-        .map(|l| {
-            if l == "[axis.controller]" {
-                format!("{l}\nstate_space_file = \"controller.toml\"\n")
-            } else {
-                format!("{l}\n")
-            }
-        })
-        .collect();
+    let text = robust_common::motor_gear_with_state_space_controller(&text);
     let config = dir.path().join("robust.toml");
     std::fs::write(&config, text).expect("write config");
     let capture_path = dir.path().join("capture.log");
