@@ -343,3 +343,93 @@ fn the_learned_table_the_state_offer_and_a_prepared_reload_do_not_allocate() {
     assert_eq!(allocations() - before, 0);
     drop(replaced);
 }
+
+/// The whole controller node in operation against the simulated solenoid, frame by frame:
+/// SYNC, sensor frames, control, supervision, status, heartbeats, and an SDO setpoint write
+/// (segmented: a REAL64) applied at a cycle boundary. Only the controller's calls are counted.
+#[test]
+fn the_controller_nodes_cycle_and_an_sdo_setpoint_write_do_not_allocate() {
+    use actuatord::bus::Frame;
+    use actuatord::canopen::{ObjectId, SdoClient};
+    use actuatord::daemon::node::CycleTiming;
+    use actuatord::simnode::SimNode;
+
+    let (config, mut node) = solenoid_node();
+    let plant = actuatord::physics::PlantSpec::from_toml(
+        include_str!("../config/plants/solenoid.toml"),
+        "config/plants/solenoid.toml",
+    )
+    .and_then(|s| s.build_named("config/plants/solenoid.toml"))
+    .expect("plant");
+    let period_s = config.cycle.period_s;
+    let mut sim = SimNode::new(config.axis[0].actuator_node_id, plant, period_s, Vec::new());
+    let mut to_sim: Vec<Frame> = Vec::with_capacity(256);
+    let mut to_node: Vec<Frame> = Vec::with_capacity(256);
+    sim.boot(&mut |_| {});
+    node.boot(&mut |f| to_sim.push(*f), &mut |_| {});
+    let mut client = SdoClient::new(node.node_id());
+    let sdo_response = 0x580 + u32::from(node.node_id());
+    let mut request: Option<Frame> = None;
+    let (warm_up, write_at, cycles) = (800, 2000, 3200);
+    let mut counted = 0;
+    for k in 0..cycles {
+        let t = k as f64 * period_s;
+        to_node.clear();
+        for f in to_sim.drain(..) {
+            sim.handle(&f, &mut |a| to_node.push(*a), &mut |_| {});
+        }
+        if k % 40 == 0 {
+            to_node.push(sim.heartbeat());
+        }
+        if k == write_at {
+            let bytes = 0.011f64.to_le_bytes();
+            request = Some(client.start_download(
+                ObjectId {
+                    index: 0x2004,
+                    sub: 1,
+                },
+                &bytes,
+                t,
+            ));
+        }
+        to_node.extend(request.take());
+        let before = allocations();
+        for f in &to_node {
+            node.handle(f, t, &mut |_| {});
+        }
+        node.begin_cycle();
+        let sync = node.sync_frame();
+        let after_node = allocations();
+        to_node.clear();
+        sim.handle(&sync, &mut |a| to_node.push(*a), &mut |_| {});
+        let resumed = allocations();
+        for a in &to_node {
+            node.handle(a, t, &mut |_| {});
+        }
+        node.finish_cycle(
+            t,
+            CycleTiming::default(),
+            &mut |f| to_sim.push(*f),
+            &mut |_| {},
+        );
+        if k >= warm_up {
+            counted += (after_node - before) + (allocations() - resumed);
+        }
+        let mut i = 0;
+        while i < to_sim.len() {
+            if to_sim[i].id() == sdo_response {
+                let f = to_sim.remove(i);
+                request = client.handle(&f, t);
+            } else {
+                i += 1;
+            }
+        }
+    }
+    assert!(
+        matches!(client.outcome(), Some(Ok(_))),
+        "the write was answered: {:?}",
+        client.outcome()
+    );
+    assert_eq!(node.axes()[0].setpoint(), 0.011, "the write took effect");
+    assert_eq!(counted, 0, "allocations in {} cycles", cycles - warm_up);
+}

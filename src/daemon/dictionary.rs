@@ -146,9 +146,22 @@ pub enum WriteEffect {
     Node,
 }
 
-/// Apply one staged write to `config`. Infinite bounds mean "not watched", as in the dictionary.
-pub fn apply_write(config: &mut Config, w: &PendingWrite) -> Result<WriteEffect, String> {
-    let number = match w.value {
+/// The effect of a write that leaves the configuration alone (a setpoint, a fault reset): what
+/// an operational node receives, applied in place without copying the configuration.
+pub fn live_effect(w: &PendingWrite) -> Option<WriteEffect> {
+    let axis = w.axis?;
+    match w.name {
+        "setpoint_position" => Some(WriteEffect::Setpoint {
+            axis,
+            position: number(w),
+        }),
+        "fault_reset" => Some(WriteEffect::FaultReset { axis }),
+        _ => None,
+    }
+}
+
+fn number(w: &PendingWrite) -> f64 {
+    match w.value {
         Value::Real64(v) => v,
         Value::Real32(v) => f64::from(v),
         Value::Unsigned8(v) => f64::from(v),
@@ -156,7 +169,15 @@ pub fn apply_write(config: &mut Config, w: &PendingWrite) -> Result<WriteEffect,
         Value::Unsigned32(v) => f64::from(v),
         Value::Boolean(b) => f64::from(u8::from(b)),
         _ => f64::NAN,
-    };
+    }
+}
+
+/// Apply one staged write to `config`. Infinite bounds mean "not watched", as in the dictionary.
+pub fn apply_write(config: &mut Config, w: &PendingWrite) -> Result<WriteEffect, String> {
+    if let Some(effect) = live_effect(w) {
+        return Ok(effect);
+    }
+    let number = number(w);
     let Some(axis) = w.axis else {
         return match w.name {
             "producer_heartbeat_time" => {
@@ -204,13 +225,6 @@ pub fn apply_write(config: &mut Config, w: &PendingWrite) -> Result<WriteEffect,
     }
     let l = &mut a.limits;
     match name {
-        "setpoint_position" => {
-            return Ok(WriteEffect::Setpoint {
-                axis,
-                position: number,
-            })
-        }
-        "fault_reset" => return Ok(WriteEffect::FaultReset { axis }),
         "output_min" => a.controller.output_min = number,
         "output_max" => a.controller.output_max = number,
         "safe_command" => a.safe_command = number,

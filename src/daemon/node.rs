@@ -660,7 +660,31 @@ impl ControllerNode {
 
     /// Staged SDO writes take effect together at this cycle boundary, or not at all.
     fn apply_sdo_writes(&mut self, now_s: f64, record: &mut dyn FnMut(Record)) {
-        if self.od.pending_writes().is_empty() {
+        let staged = self.od.pending_writes().len();
+        if staged == 0 {
+            return;
+        }
+        if self
+            .od
+            .pending_writes()
+            .iter()
+            .all(|w| dictionary::live_effect(w).is_some())
+        {
+            for i in 0..staged {
+                if let Some(effect) = self
+                    .od
+                    .pending_writes()
+                    .get(i)
+                    .and_then(dictionary::live_effect)
+                {
+                    self.apply_effect(effect, now_s, record);
+                }
+            }
+            self.od.take_pending_writes().for_each(drop);
+            record(Record::Event(Event::ParametersApplied {
+                t_s: now_s,
+                writes: staged as u32,
+            }));
             return;
         }
         let mut config = self.config.clone();
@@ -702,26 +726,10 @@ impl ControllerNode {
                 for (i, axis) in axes {
                     self.axes[i] = axis;
                 }
-                for effect in &effects {
-                    match *effect {
-                        WriteEffect::Setpoint { axis, position } => {
-                            if let Some(a) = self.axes.get_mut(axis) {
-                                a.set_setpoint(position);
-                            }
-                        }
-                        WriteEffect::FaultReset { axis } => {
-                            if let Some(node) = self.axes.get(axis).map(|a| a.actuator_node_id) {
-                                self.reset_faults(node, now_s, record);
-                            }
-                        }
-                        WriteEffect::Node => {
-                            self.heartbeat_every =
-                                cycles(config.node.heartbeat_period_s, self.period_s);
-                        }
-                        WriteEffect::Rebuild { .. } => {}
-                    }
-                }
                 self.config = config;
+                for &effect in &effects {
+                    self.apply_effect(effect, now_s, record);
+                }
                 record(Record::Event(Event::ParametersApplied {
                     t_s: now_s,
                     writes: effects.len() as u32,
@@ -737,6 +745,26 @@ impl ControllerNode {
                     reason: reason.into(),
                 }));
             }
+        }
+    }
+
+    /// What one accepted write does at the cycle boundary, the configuration already in force.
+    fn apply_effect(&mut self, effect: WriteEffect, now_s: f64, record: &mut dyn FnMut(Record)) {
+        match effect {
+            WriteEffect::Setpoint { axis, position } => {
+                if let Some(a) = self.axes.get_mut(axis) {
+                    a.set_setpoint(position);
+                }
+            }
+            WriteEffect::FaultReset { axis } => {
+                if let Some(node) = self.axes.get(axis).map(|a| a.actuator_node_id) {
+                    self.reset_faults(node, now_s, record);
+                }
+            }
+            WriteEffect::Node => {
+                self.heartbeat_every = cycles(self.config.node.heartbeat_period_s, self.period_s);
+            }
+            WriteEffect::Rebuild { .. } => {}
         }
     }
 
