@@ -108,8 +108,14 @@ pub enum LabCommand {
         #[command(flatten)]
         data: DataArgs,
         /// Model files; give several to compare before and after.
-        #[arg(long, required = true)]
+        #[arg(long, required_unless_present = "family")]
         model: Vec<PathBuf>,
+        /// Plant family of a first model (before), with the effects of --with.
+        #[arg(long)]
+        family: Option<String>,
+        /// Effects of the --family model, comma separated.
+        #[arg(long, value_delimiter = ',', requires = "family")]
+        with: Vec<String>,
         /// Prediction mode.
         #[arg(long, value_enum, default_value = "inverse_dynamics")]
         mode: Mode,
@@ -269,7 +275,8 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 return Ok(());
             }
             println!(
-                "model {} on {}: mode {}, NRMSE {:.4} (free parameters refitted), {} moving samples (N_eff {:.0})",
+                "model {} on {}: mode {}, NRMSE {:.4} (free parameters refitted), {} moving samples (N_eff {:.0})\n\
+                 NRMSE here weighs the samples at rest as much as the moving ones (`compare` and `fit` give motion alone)",
                 m.name, d.origin, dg.mode, dg.nrmse_base, dg.samples, dg.effective_samples
             );
             println!(
@@ -322,6 +329,9 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             if let Some(p) = &pb {
                 p.finish_and_clear();
             }
+            // The figure `compare` gives for the written model (moving samples), not the fit's
+            // criterion, which also weighs the samples at rest.
+            let after = id_comparison(&fit, super::compare::units(&m).1, "fitted")?;
             let fitted = Model {
                 name: out
                     .file_stem()
@@ -332,7 +342,7 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             };
             let mut text = format!(
                 "# Fitted by `actuator fit` on {} (mode inverse_dynamics): NRMSE {:.4} -> {:.4}\n",
-                d.origin, before.nrmse, fit.nrmse
+                d.origin, before.nrmse, after.nrmse
             );
             for (j, name) in fit.names.iter().enumerate() {
                 if let Some((lo, hi)) = fit.intervals[j] {
@@ -356,22 +366,37 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                     })
                     .collect();
                 let outj = serde_json::json!({"mode": "inverse_dynamics", "nrmse_before": before.nrmse,
-                    "nrmse": fit.nrmse, "parameters": params, "nonlinear": fit.nonlinear, "out": out.display().to_string()});
+                    "nrmse": after.nrmse, "parameters": params, "nonlinear": fit.nonlinear, "out": out.display().to_string()});
                 println!("{}", serde_json::to_string_pretty(&outj)?);
                 return Ok(());
             }
             println!(
-                "model {} on {}: mode inverse_dynamics, NRMSE {:.4} as given -> {:.4} fitted",
-                m.name, d.origin, before.nrmse, fit.nrmse
+                "model {} on {}: mode inverse_dynamics, NRMSE {:.4} as given -> {:.4} fitted (drive force, moving samples)",
+                m.name, d.origin, before.nrmse, after.nrmse
             );
+            let free_in_model =
+                |name: &str| m.spec.params().iter().any(|(n, p)| n == name && p.free);
             for (j, name) in fit.names.iter().enumerate() {
+                let v = fit.values[j];
                 match fit.intervals[j] {
-                    Some((lo, hi)) => println!(
-                        "  {name:<40} {:>13.6e}  95 % [{lo:.4e}, {hi:.4e}]",
-                        fit.values[j]
-                    ),
+                    Some((lo, hi)) => {
+                        println!("  {name:<40} {v:>13.6e}  95 % [{lo:.4e}, {hi:.4e}]")
+                    }
+                    None if free_in_model(name) => {
+                        let at_bound = m
+                            .spec
+                            .params()
+                            .iter()
+                            .any(|(n, p)| n == name && (v == p.def.min || v == p.def.max));
+                        let why = if at_bound {
+                            "at its bound"
+                        } else {
+                            "kept: not separable from the other terms on these data"
+                        };
+                        println!("  {name:<40} {v:>13.6e}  ({why})")
+                    }
                     None if m.spec.get(name).is_some() => {
-                        println!("  {name:<40} {:>13.6e}  (fixed)", fit.values[j])
+                        println!("  {name:<40} {v:>13.6e}  (fixed)")
                     }
                     None => {}
                 }
@@ -385,13 +410,17 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
         LabCommand::Report {
             data,
             model,
+            family,
+            with,
             mode,
             out,
         } => {
             let (d, prep) = load_data(&data)?;
-            let models = model
-                .iter()
-                .map(|p| Model::load(p))
+            let first = family.map(|f| Model::from_names(&f, &with)).transpose()?;
+            let models = first
+                .into_iter()
+                .map(Ok)
+                .chain(model.iter().map(|p| Model::load(p)))
                 .collect::<anyhow::Result<Vec<_>>>()?;
             let path = super::report::write_report(&out, &d, &prep, &models, mode)?;
             println!("wrote {}", path.display());

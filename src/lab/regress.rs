@@ -865,8 +865,22 @@ impl Balance {
     /// the intervals for correlated residuals.
     pub fn fit(&self, index: Option<&[usize]>, extra: usize, n_eff_per_sample: f64) -> IdFit {
         let index = index.unwrap_or(&self.index);
-        let mut values: Vec<f64> = self.terms.iter().map(|t| t.value).collect();
-        let mut free: Vec<bool> = self.terms.iter().map(|t| t.free).collect();
+        let values: Vec<f64> = self.terms.iter().map(|t| t.value).collect();
+        let free: Vec<bool> = self.terms.iter().map(|t| t.free).collect();
+        self.fit_from(values, free, index, extra, n_eff_per_sample, true)
+    }
+
+    /// [`Balance::fit`] from the given coefficients and freedom. `branch`: on collinear columns,
+    /// try each one fixed (see below) rather than only the one the solver names.
+    fn fit_from(
+        &self,
+        mut values: Vec<f64>,
+        mut free: Vec<bool>,
+        index: &[usize],
+        extra: usize,
+        n_eff_per_sample: f64,
+        branch: bool,
+    ) -> IdFit {
         let mut intervals = vec![None; self.terms.len()];
         for _ in 0..self.terms.len() + 1 {
             let cols: Vec<usize> = (0..self.terms.len()).filter(|&j| free[j]).collect();
@@ -909,8 +923,37 @@ impl Balance {
                         break;
                     }
                 }
+                Err(crate::ident::IdentError::RankDeficient { column, .. }) if branch => {
+                    // Collinear columns (a pretension and both Coulomb levels on moving samples;
+                    // a column without information, e.g. no negative motion): one of them keeps
+                    // its value. Which one does not change the fit on motion unless a bound
+                    // bites on the others, and it changes the friction band at rest: take the
+                    // choice whose whole fit (bounds, rest included) leaves the least residual.
+                    let named = cols[column];
+                    let mut best: Option<IdFit> = None;
+                    for j in
+                        std::iter::once(named).chain(cols.iter().copied().filter(|&j| j != named))
+                    {
+                        let mut fixed = free.clone();
+                        fixed[j] = false;
+                        let fit = self.fit_from(
+                            values.clone(),
+                            fixed,
+                            index,
+                            extra,
+                            n_eff_per_sample,
+                            false,
+                        );
+                        if best.as_ref().is_none_or(|b| fit.rss < b.rss * (1.0 - 1e-9)) {
+                            best = Some(fit);
+                        }
+                    }
+                    if let Some(b) = best {
+                        return b;
+                    }
+                    free[named] = false;
+                }
                 Err(crate::ident::IdentError::RankDeficient { column, .. }) => {
-                    // A column without information (e.g. no negative motion): keep it as is.
                     free[cols[column]] = false;
                 }
                 Err(_) => break,

@@ -1,0 +1,121 @@
+//! The README's model-lab walkthrough, command by command as a user types it (in a folder with
+//! the project's `config/`): each command succeeds, the verdicts its comments promise come true,
+//! the refitted model's error falls, and the report shows both models.
+
+use std::path::Path;
+use std::process::Command;
+
+/// The `actuator ...` lines of the README's code block under `## The model lab`, with the
+/// comment each carries.
+fn walkthrough() -> Vec<(Vec<String>, String)> {
+    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md"))
+        .expect("README.md");
+    let section = readme
+        .split("\n## The model lab")
+        .nth(1)
+        .expect("a model lab section");
+    let block = section
+        .split("```sh\n")
+        .nth(1)
+        .and_then(|b| b.split("```").next())
+        .expect("a sh code block");
+    block
+        .lines()
+        .filter(|l| l.starts_with("actuator "))
+        .map(|l| {
+            let (cmd, comment) = l.split_once('#').unwrap_or((l, ""));
+            let args = cmd.split_whitespace().skip(1).map(String::from).collect();
+            (args, comment.trim().to_string())
+        })
+        .collect()
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).expect("mkdir");
+    for entry in std::fs::read_dir(from).expect("read_dir") {
+        let entry = entry.expect("entry");
+        let target = to.join(entry.file_name());
+        if entry.file_type().expect("type").is_dir() {
+            copy_dir(&entry.path(), &target);
+        } else {
+            std::fs::copy(entry.path(), &target).expect("copy");
+        }
+    }
+}
+
+fn run(dir: &Path, args: &[String]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("actuator runs");
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "actuator {}: {}{}",
+        args.join(" "),
+        stdout,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+fn nrmse(dir: &Path, model: &[&str]) -> f64 {
+    let mut args: Vec<String> = ["compare", "--data", "run.csv", "--json"]
+        .iter()
+        .chain(model)
+        .map(|s| s.to_string())
+        .collect();
+    args.dedup();
+    let json: serde_json::Value = serde_json::from_str(&run(dir, &args)).expect("JSON");
+    json["nrmse"].as_f64().expect("nrmse")
+}
+
+#[test]
+fn the_readme_walkthrough_names_the_missing_effect_and_the_refit_lowers_the_error() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    copy_dir(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("config"),
+        &dir.path().join("config"),
+    );
+    let steps = walkthrough();
+    assert!(steps.len() >= 5, "the walkthrough has its steps: {steps:?}");
+    for (args, comment) in &steps {
+        let out = run(dir.path(), args);
+        if let Some(verdict) = comment.strip_prefix("verdict: ") {
+            assert!(
+                out.contains(&format!("verdict: {verdict} is most likely missing")),
+                "promised verdict {verdict}: {out}"
+            );
+        }
+    }
+    // The refitted model (with the named effect) explains the data better than the rough
+    // one refitted (`diagnose` refits it), in the figure `compare` gives.
+    let rough_fit = dir.path().join("rough.toml");
+    run(
+        dir.path(),
+        &[
+            "fit",
+            "--data",
+            "run.csv",
+            "--family",
+            "solenoid",
+            "--with",
+            "spring,viscous",
+            "--out",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .chain([rough_fit.display().to_string()])
+        .collect::<Vec<_>>(),
+    );
+    let rough = nrmse(dir.path(), &["--model", "rough.toml"]);
+    let fitted = nrmse(dir.path(), &["--model", "fitted.toml"]);
+    assert!(
+        fitted < 0.8 * rough,
+        "NRMSE with the named effect {fitted} against {rough} without"
+    );
+    let html = std::fs::read_to_string(dir.path().join("report/index.html")).expect("report");
+    assert!(html.matches("<svg").count() >= 4, "plots in the report");
+    assert!(html.contains("fitted"), "the fitted model is in the report");
+}
