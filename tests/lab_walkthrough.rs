@@ -119,3 +119,73 @@ fn the_readme_walkthrough_names_the_missing_effect_and_the_refit_lowers_the_erro
     assert!(html.matches("<svg").count() >= 4, "plots in the report");
     assert!(html.contains("fitted"), "the fitted model is in the report");
 }
+
+/// The lab reads the daemon's own recording: a short run with setpoint steps, compared and
+/// diagnosed as MCAP, every recorded cycle a sample.
+#[test]
+fn the_lab_reads_a_recording_of_the_daemon() {
+    use actuatord::daemon::config::SetpointStep;
+    use actuatord::demo::{run as demo, Script};
+    let dir = tempfile::tempdir().expect("tempdir");
+    let recording = dir.path().join("steps.mcap");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let setpoints = (0..8)
+        .map(|i| SetpointStep {
+            at_s: 0.4 * i as f64,
+            position_m: if i % 2 == 0 { 0.004 } else { 0.010 },
+        })
+        .collect();
+    let script = Script {
+        setpoints,
+        faults: Vec::new(),
+        duration_s: 3.2,
+    };
+    demo(
+        &root.join("config/solenoid.toml"),
+        &root.join("config/plants/solenoid.toml"),
+        &script,
+        &recording,
+    )
+    .expect("demo runs");
+    let cycles = actuatord::daemon::recorder::read_cycles(&recording)
+        .expect("recording")
+        .len();
+    let data = recording.display().to_string();
+    let out = run(
+        dir.path(),
+        &[
+            "compare",
+            "--data",
+            &data,
+            "--family",
+            "solenoid",
+            "--with",
+            "spring,viscous,coulomb",
+            "--json",
+        ]
+        .map(String::from),
+    );
+    let json: serde_json::Value = serde_json::from_str(&out).expect("JSON");
+    let samples = json["data_samples"].as_u64().expect("data_samples") as usize;
+    assert_eq!(samples, cycles, "one sample per recorded cycle");
+    assert!(json["nrmse"].as_f64().is_some_and(f64::is_finite), "{out}");
+    let out = run(
+        dir.path(),
+        &[
+            "diagnose",
+            "--data",
+            &data,
+            "--family",
+            "solenoid",
+            "--with",
+            "spring,viscous",
+            "--json",
+        ]
+        .map(String::from),
+    );
+    let json: serde_json::Value = serde_json::from_str(&out).expect("JSON");
+    assert!(
+        json["candidates"].as_array().is_some_and(|c| !c.is_empty()),
+        "{out}"
+    );
+}

@@ -185,6 +185,7 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 let out = serde_json::json!({
                     "mode": c.mode.name(), "quantity": c.quantity, "unit": c.unit,
                     "fit": c.fit, "nrmse": c.nrmse, "rmse": c.rmse, "samples": c.index.len(),
+                    "data_samples": d.len(),
                     "note": c.note, "regimes": b.regimes, "tests": b.tests, "worst": b.worst,
                     "holdout": held,
                 });
