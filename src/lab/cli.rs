@@ -110,7 +110,7 @@ pub enum LabCommand {
         /// Model files; give several to compare before and after.
         #[arg(long, required_unless_present = "family")]
         model: Vec<PathBuf>,
-        /// Plant family of a first model (before), with the effects of --with.
+        /// Plant family of a first model (before), with the effects of --with, refitted.
         #[arg(long)]
         family: Option<String>,
         /// Effects of the --family model, comma separated.
@@ -417,7 +417,18 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             out,
         } => {
             let (d, prep) = load_data(&data)?;
-            let first = family.map(|f| Model::from_names(&f, &with)).transpose()?;
+            // A model named by family and effects has default values nobody chose: it enters
+            // the report refitted, as `diagnose` judges it.
+            let first = family
+                .map(|f| -> anyhow::Result<Model> {
+                    let m = Model::from_names(&f, &with)?;
+                    let (spec, _) = fit_spec(&m.spec, &d, &prep, None)?;
+                    Ok(Model {
+                        name: format!("{} (refitted)", m.name),
+                        spec,
+                    })
+                })
+                .transpose()?;
             let models = first
                 .into_iter()
                 .map(Ok)

@@ -11,6 +11,13 @@ use super::regimes::{breakdown, Breakdown};
 use super::signals::Prepared;
 use super::svg::{bars, chart, Series};
 
+/// Text safe inside HTML.
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
 /// Write `index.html` into `dir` for the models on the data; returns the file written.
 pub fn write_report(
     dir: &Path,
@@ -33,8 +40,8 @@ pub fn write_report(
         "<!doctype html><html><head><meta charset='utf-8'><title>actuator lab: {}</title>\
          <style>body{{font-family:sans-serif;max-width:760px;margin:auto}}td,th{{padding:2px 8px;text-align:right}}</style></head><body>\
          <h1>Model lab report</h1><p>Data: <code>{}</code>, {} samples, period {:.4} s. Mode: <b>{}</b>.</p><table><tr><th>model</th><th>fit %</th><th>NRMSE</th><th>RMSE</th></tr>",
-        data.origin,
-        data.origin,
+        esc(&data.origin),
+        esc(&data.origin),
         data.len(),
         data.period_s(),
         mode
@@ -43,12 +50,16 @@ pub fn write_report(
         let _ = write!(
             html,
             "<tr><td>{}</td><td>{:.1}</td><td>{:.4}</td><td>{:.3e} {}</td></tr>",
-            m.name, c.fit, c.nrmse, c.rmse, c.unit
+            esc(&m.name),
+            c.fit,
+            c.nrmse,
+            c.rmse,
+            c.unit
         );
     }
     html.push_str("</table>");
     for (m, (_, b)) in models.iter().zip(&results) {
-        let _ = write!(html, "<p><b>{}</b>: {}</p>", m.name, b.worst);
+        let _ = write!(html, "<p><b>{}</b>: {}</p>", esc(&m.name), esc(&b.worst));
     }
     // Over time.
     let first = &results[0].0;
@@ -73,7 +84,8 @@ pub fn write_report(
         &series,
     ));
     // Residual against velocity, position, supply.
-    let mut against = |label: &str, f: &dyn Fn(usize) -> f64| {
+    let pos_unit = super::compare::units(&models[0]).0;
+    let mut against = |label: &str, axis: &str, f: &dyn Fn(usize) -> f64| {
         let series: Vec<Series> = names
             .iter()
             .zip(&results)
@@ -86,15 +98,19 @@ pub fn write_report(
             .collect();
         html.push_str(&chart(
             &format!("residual against {label}"),
-            label,
+            axis,
             &format!("residual ({})", first.unit),
             &series,
         ));
     };
-    against("velocity", &|k| prep.v[k]);
-    against("position", &|k| data.output[k]);
+    against("velocity", &format!("velocity ({pos_unit}/s)"), &|k| {
+        prep.v[k]
+    });
+    against("position", &format!("position ({pos_unit})"), &|k| {
+        data.output[k]
+    });
     if let Some(s) = &data.supply {
-        against("supply", &|k| s[k]);
+        against("supply", "supply (V or Pa)", &|k| s[k]);
     }
     // Error by regime.
     let labels: Vec<String> = results[0]
@@ -129,7 +145,8 @@ pub fn write_report(
         for t in &b.tests {
             let _ = write!(
                 html,
-                "<tr><td>{name}</td><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{}</td></tr>",
+                "<tr><td>{}</td><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{}</td></tr>",
+                esc(name),
                 t.name,
                 t.value,
                 t.bound,
