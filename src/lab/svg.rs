@@ -257,7 +257,7 @@ mod tests {
             assert!(svg.contains(text), "{text} in the bars");
         }
         // Two models by two rows and the background.
-        assert!(svg.matches("<rect").count() >= 4 + 1, "{svg}");
+        assert_eq!(svg.matches("<rect").count(), 4 + 1, "{svg}");
     }
 
     #[test]
