@@ -5,9 +5,10 @@ use std::path::PathBuf;
 
 use clap::{Args, Subcommand};
 
-use super::compare::{compare, default_mode, holdout, id_comparison, Mode};
+use super::compare::{compare, default_mode, holdout, Mode};
 use super::data::{load, Columns, Dataset};
 use super::diagnose::{diagnose, DiagnoseOptions};
+use super::methods::{fit_model, FitMethod, FitOptions, Status};
 use super::model::Model;
 use super::regimes::breakdown;
 use super::regress::fit_spec;
@@ -99,6 +100,20 @@ pub enum LabCommand {
         /// Where to write the fitted model.
         #[arg(long)]
         out: PathBuf,
+        /// Identification method: least_squares (inverse dynamics, one batch), recursive (the
+        /// same regression sample by sample, with forgetting: shows drift), output_error
+        /// (Levenberg-Marquardt on the predicted position, from the least-squares estimate).
+        #[arg(long, value_enum, default_value = "least_squares")]
+        method: FitMethod,
+        /// Forgetting factor of --method recursive, in (0, 1]; memory about 1/(1-λ) samples.
+        #[arg(long, default_value_t = 1.0)]
+        forgetting: f64,
+        /// Criterion of --method output_error: k_step (works in closed loop) or free_run.
+        #[arg(long, value_enum, default_value = "k_step")]
+        mode: Mode,
+        /// Horizon of the k_step criterion, samples.
+        #[arg(long, default_value_t = 10)]
+        k: usize,
         /// Print JSON.
         #[arg(long)]
         json: bool,
@@ -313,97 +328,144 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             data,
             model,
             out,
+            method,
+            forgetting,
+            mode,
+            k,
             json,
         } => {
             let (d, prep) = load_data(&data)?;
             let m = load_model(&model)?;
-            let before = id_comparison(
-                &super::regress::balance(&m.spec, &d, &prep)?.evaluate(),
-                super::compare::units(&m).1,
-                "as given",
-            )?;
-            let pb = progress_bar(1);
-            if let Some(p) = &pb {
-                p.set_message("fitting");
+            let opts = FitOptions {
+                method,
+                forgetting,
+                mode,
+                k,
+            };
+            let pb = std::sync::Mutex::new(None::<indicatif::ProgressBar>);
+            let progress = |done: usize, total: usize| {
+                if let Ok(mut g) = pb.lock() {
+                    if g.is_none() {
+                        *g = progress_bar(total);
+                    }
+                    if let Some(p) = g.as_ref() {
+                        p.set_position(done as u64);
+                        p.set_message(method.name());
+                    }
+                }
+            };
+            let f = fit_model(&m, &d, &prep, &opts, &progress)?;
+            if let Ok(g) = pb.lock() {
+                if let Some(p) = g.as_ref() {
+                    p.finish_and_clear();
+                }
             }
-            let (spec, fit) = fit_spec(&m.spec, &d, &prep, None)?;
-            if let Some(p) = &pb {
-                p.finish_and_clear();
-            }
-            // The figure `compare` gives for the written model (moving samples), not the fit's
-            // criterion, which also weighs the samples at rest.
-            let after = id_comparison(&fit, super::compare::units(&m).1, "fitted")?;
+            let (crit_mode, crit_before, crit_after) = f.criterion;
             let fitted = Model {
                 name: out
                     .file_stem()
                     .and_then(|s| s.to_str())
                     .unwrap_or("fitted")
                     .to_string(),
-                spec,
+                spec: f.spec.clone(),
             };
             let mut text = format!(
-                "# Fitted by `actuator fit` on {} (mode inverse_dynamics): NRMSE {:.4} -> {:.4}\n",
-                d.origin, before.nrmse, after.nrmse
+                "# Fitted by `actuator fit --method {}` on {} ({} NRMSE {:.4} -> {:.4}; inverse_dynamics NRMSE {:.4} -> {:.4})\n",
+                method.name(),
+                d.origin,
+                crit_mode.name(),
+                crit_before,
+                crit_after,
+                f.inverse_dynamics.0,
+                f.inverse_dynamics.1
             );
-            for (j, name) in fit.names.iter().enumerate() {
-                if let Some((lo, hi)) = fit.intervals[j] {
+            for p in &f.parameters {
+                if let Some((lo, hi)) = p.interval {
                     text.push_str(&format!(
-                        "# {name} = {:.6e}, 95 % interval [{lo:.6e}, {hi:.6e}]\n",
-                        fit.values[j]
+                        "# {} = {:.6e}, 95 % interval [{lo:.6e}, {hi:.6e}]\n",
+                        p.name, p.value
                     ));
                 }
             }
             text.push_str(&fitted.to_toml());
             std::fs::write(&out, text).map_err(|e| anyhow::anyhow!("{}: {e}", out.display()))?;
             if json {
-                let params: Vec<_> = fit
-                    .names
-                    .iter()
-                    .enumerate()
-                    .filter(|(j, _)| fit.intervals[*j].is_some())
-                    .map(|(j, n)| {
-                        let (lo, hi) = fit.intervals[j].unwrap_or((f64::NAN, f64::NAN));
-                        serde_json::json!({"name": n, "value": fit.values[j], "low": lo, "high": hi})
-                    })
-                    .collect();
-                let outj = serde_json::json!({"mode": "inverse_dynamics", "nrmse_before": before.nrmse,
-                    "nrmse": after.nrmse, "parameters": params, "nonlinear": fit.nonlinear, "out": out.display().to_string()});
+                let outj = serde_json::json!({
+                    "method": method.name(), "mode": crit_mode.name(),
+                    "nrmse_before": crit_before, "nrmse": crit_after,
+                    "inverse_dynamics": {"nrmse_before": f.inverse_dynamics.0, "nrmse": f.inverse_dynamics.1},
+                    "parameters": f.parameters.iter().map(|p| serde_json::json!({
+                        "name": p.name, "value": p.value, "status": p.status,
+                        "low": p.interval.map(|i| i.0), "high": p.interval.map(|i| i.1)})).collect::<Vec<_>>(),
+                    "track": f.track,
+                    "note": f.note, "out": out.display().to_string()});
                 println!("{}", serde_json::to_string_pretty(&outj)?);
                 return Ok(());
             }
             println!(
-                "model {} on {}: mode inverse_dynamics, NRMSE {:.4} as given -> {:.4} fitted (drive force, moving samples)",
-                m.name, d.origin, before.nrmse, after.nrmse
+                "model {} on {}: method {}, {} NRMSE {:.4} as given -> {:.4} fitted",
+                m.name,
+                d.origin,
+                method.name(),
+                crit_mode.name(),
+                crit_before,
+                crit_after
             );
-            let free_in_model =
-                |name: &str| m.spec.params().iter().any(|(n, p)| n == name && p.free);
-            for (j, name) in fit.names.iter().enumerate() {
-                let v = fit.values[j];
-                match fit.intervals[j] {
-                    Some((lo, hi)) => {
+            if crit_mode != Mode::InverseDynamics || method != FitMethod::LeastSquares {
+                println!(
+                    "  (inverse_dynamics NRMSE, the figure of `compare`: {:.4} -> {:.4})",
+                    f.inverse_dynamics.0, f.inverse_dynamics.1
+                );
+            } else {
+                println!("  (drive force, moving samples: the figure of `compare`)");
+            }
+            println!("  {}", f.note);
+            for p in &f.parameters {
+                let (name, v) = (&p.name, p.value);
+                match (p.status, p.interval) {
+                    (Status::Estimated, Some((lo, hi))) => {
                         println!("  {name:<40} {v:>13.6e}  95 % [{lo:.4e}, {hi:.4e}]")
                     }
-                    None if free_in_model(name) => {
-                        let at_bound = m
-                            .spec
-                            .params()
-                            .iter()
-                            .any(|(n, p)| n == name && (v == p.def.min || v == p.def.max));
-                        let why = if at_bound {
-                            "at its bound"
-                        } else {
-                            "kept: not separable from the other terms on these data"
-                        };
-                        println!("  {name:<40} {v:>13.6e}  ({why})")
-                    }
-                    None if m.spec.get(name).is_some() => {
-                        println!("  {name:<40} {v:>13.6e}  (fixed)")
-                    }
-                    None => {}
+                    (Status::Estimated, None) => println!("  {name:<40} {v:>13.6e}"),
+                    (Status::AtBound, _) => println!("  {name:<40} {v:>13.6e}  (at its bound)"),
+                    (Status::Kept, _) => println!(
+                        "  {name:<40} {v:>13.6e}  (kept: not separable from the other terms on these data)"
+                    ),
+                    (Status::Fixed, _) => println!("  {name:<40} {v:>13.6e}  (fixed)"),
+                    (Status::Grid, _) => println!("  {name:<40} {v:>13.6e}  (grid search)"),
                 }
             }
-            for (name, v) in &fit.nonlinear {
-                println!("  {name:<40} {v:>13.6e}  (grid search)");
+            if let Some(t) = &f.track {
+                println!(
+                    "\n  recursive estimate over the record (forgetting {}):",
+                    t.forgetting
+                );
+                print!("  {:<40}", "t (s)");
+                for (time, _) in &t.points {
+                    print!(" {time:>12.3}");
+                }
+                println!();
+                for (j, name) in t.names.iter().enumerate() {
+                    print!("  {name:<40}");
+                    for (_, values) in &t.points {
+                        print!(" {:>12.4e}", values[j]);
+                    }
+                    println!();
+                }
+                if let Some(c) = &t.change {
+                    println!(
+                        "  halves of the record fitted apart: {} {:.4e} -> {:.4e} (z = {:.1}){}",
+                        c.name,
+                        c.first,
+                        c.second,
+                        c.z,
+                        if c.z > 3.0 {
+                            ": the plant changed during the record, or the model lacks an effect"
+                        } else {
+                            ": no parameter changed beyond chance"
+                        }
+                    );
+                }
             }
             println!("wrote {}", out.display());
             Ok(())

@@ -17,6 +17,7 @@
 //! | [`compare`] | prediction modes and the fit / NRMSE / RMSE of a model |
 //! | [`regimes`] | error by regime and residual tests: where a model fails |
 //! | [`diagnose`] | candidate effects, their refit, penalised ranking and verdict |
+//! | [`methods`] | the identification methods of `fit`: least squares, recursive, output error |
 //! | [`report`] | HTML page with SVG plots |
 //! | [`cli`] | the `actuator compare / diagnose / fit / report` commands |
 //!
@@ -27,6 +28,7 @@ pub mod cli;
 pub mod compare;
 pub mod data;
 pub mod diagnose;
+pub mod methods;
 pub mod model;
 pub mod regimes;
 pub mod regress;
@@ -38,4 +40,5 @@ mod svg;
 pub use compare::{compare, Comparison, Mode};
 pub use data::{Columns, Dataset};
 pub use diagnose::{diagnose, Candidate, DiagnoseOptions, Diagnosis};
+pub use methods::{fit_model, FitMethod, FitOptions, MethodFit};
 pub use model::Model;

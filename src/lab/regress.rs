@@ -710,6 +710,19 @@ impl Balance {
         self.finish(values, free, vec![None; n], 0, &self.index, self.breakaway)
     }
 
+    /// The balance with the given coefficients (e.g. from a recursive estimator) on its usable
+    /// samples: residuals and criterion as [`Balance::fit`] reports them.
+    pub fn with_values(
+        &self,
+        values: Vec<f64>,
+        free: Vec<bool>,
+        intervals: Vec<Option<(f64, f64)>>,
+        extra: usize,
+        breakaway: Option<(f64, f64)>,
+    ) -> IdFit {
+        self.finish(values, free, intervals, extra, &self.index, breakaway)
+    }
+
     fn target_and_prediction(&self, values: &[f64], free: &[bool], k: usize) -> (f64, f64) {
         let mut target = 0.0;
         let mut pred = 0.0;
@@ -1175,6 +1188,15 @@ pub fn fit_spec(
     }
     let bal = balance(&spec, raw, d)?;
     let fit = bal.fit(index, extra, d.n_eff_per_sample);
+    apply_fit(&mut spec, &bal, &fit)?;
+    Ok((spec, fit))
+}
+
+/// Write a balance's fitted coefficients (and fitted breakaway levels) back into the spec,
+/// clamped to the parameters' bounds.
+pub fn apply_fit(spec: &mut PlantSpec, bal: &Balance, fit: &IdFit) -> anyhow::Result<()> {
+    let is_free =
+        |spec: &PlantSpec, name: &str| spec.params().iter().any(|(n, p)| n == name && p.free);
     for (j, name) in fit.names.iter().enumerate() {
         if bal.terms[j].free && spec.get(name).is_some() {
             let v = fit.values[j];
@@ -1198,13 +1220,13 @@ pub fn fit_spec(
         }
     }
     if let (true, Some((sp, sn))) = (bal.breakaway_free, fit.breakaway) {
-        let fsx = force_suffix(&spec);
+        let fsx = force_suffix(spec);
         for (side, v) in [("pos", sp), ("neg", sn)] {
             let key = format!("stiction.breakaway_{side}{fsx}");
-            if is_free(&spec, &key) {
+            if is_free(spec, &key) {
                 spec.set(&key, v)?;
             }
         }
     }
-    Ok((spec, fit))
+    Ok(())
 }
