@@ -9,7 +9,7 @@ use actuatord::lab::{Dataset, Mode, Model};
 use actuatord::physics::{EffectKind, Family, Fault, FaultKind, PlantSpec};
 
 mod lab_common;
-use lab_common::{closed_loop, closed_loop_with_fault, sensor, Run};
+use lab_common::{closed_loop, closed_loop_with_fault, sensor, Run, Supply};
 
 /// A plant of the family with the given effects and parameter values, sensor noise included.
 fn plant(family: Family, effects: &[EffectKind], values: &[(&str, f64)], seed: u64) -> PlantSpec {
@@ -114,7 +114,7 @@ fn recursive_with_forgetting_follows_a_friction_rise_that_the_batch_fit_averages
             &axis(seed, coulomb, damping),
             seed,
             16.0,
-            false,
+            Supply::Nominal,
             Run::Track,
             Some((8.0, friction_x3)),
         );

@@ -151,6 +151,8 @@ fn add(spec: &mut PlantSpec, kind: EffectKind, g: &mut Lcg) {
             }
         }
         EffectKind::SupplyGain => set(spec, "supply_gain.exponent", g.range(1.0, 2.0)),
+        // A seal pressed by the supply: friction about in proportion.
+        EffectKind::SupplyFriction => set(spec, "supply_friction.exponent", g.range(0.8, 1.5)),
         _ => {}
     }
 }
@@ -178,7 +180,10 @@ fn case(family: Family, hidden: Option<EffectKind>) -> Case {
         family,
         truth: truth_of(family),
         hidden,
-        supply: hidden == Some(EffectKind::SupplyGain),
+        supply: matches!(
+            hidden,
+            Some(EffectKind::SupplyGain | EffectKind::SupplyFriction)
+        ),
         run: Run::Track,
     }
 }
@@ -203,6 +208,7 @@ fn cases() -> Vec<Case> {
         E::PositionStiffness,
         E::Saturation,
         E::Payload,
+        E::SupplyFriction,
     ] {
         v.push(case(la, Some(h)));
     }
@@ -215,7 +221,13 @@ fn cases() -> Vec<Case> {
     for h in [E::Coulomb, E::Viscous, E::PositionStiffness] {
         v.push(case(so, Some(h)));
     }
-    for h in [E::Coulomb, E::Spring, E::SupplyGain, E::Viscous] {
+    for h in [
+        E::Coulomb,
+        E::Spring,
+        E::SupplyGain,
+        E::SupplyFriction,
+        E::Viscous,
+    ] {
         v.push(case(pn, Some(h)));
     }
     for h in [
@@ -232,6 +244,13 @@ fn cases() -> Vec<Case> {
     // explains the same record (docs/lab.md).
     for f in [la, so, pn, mg] {
         v.push(case(f, None));
+    }
+    // A varying supply that the complete model already accounts for: no supply effect invented.
+    for f in [la, pn] {
+        v.push(Case {
+            supply: true,
+            ..case(f, None)
+        });
     }
     for f in [la, mg] {
         for run in [Run::Dwell, Run::Breakaway] {
@@ -306,12 +325,17 @@ fn run_case(c: &Case, seed: u64, seconds: f64) -> Row {
         "{:<12} {:<20} seed {seed}",
         c.family.name(),
         format!(
-            "{}{}",
+            "{}{}{}",
             c.hidden.map_or("(complete)", |h| h.name()),
             match c.run {
                 Run::Track => "",
                 Run::Dwell => " dwell",
                 Run::Breakaway => " breakaway",
+            },
+            if c.supply && c.hidden.is_none() {
+                " supply"
+            } else {
+                ""
             }
         )
     );

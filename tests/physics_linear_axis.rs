@@ -396,3 +396,33 @@ fn voltage_command_uses_force_gain_and_supply_limit() {
     assert!((p.truth().position - 0.5 * 48.0 * 1e-4).abs() < 1e-12);
     assert_eq!(p.truth().supply_voltage_v, 24.0);
 }
+
+#[test]
+fn supply_friction_scales_the_breakaway_with_the_supply() {
+    // Coulomb 1 N at the nominal 24 V supply, in proportion to it (κ_f = 1); a 1.5 N push.
+    let effects: Vec<(EffectKind, &[(&str, f64)])> = vec![
+        (
+            EffectKind::Coulomb,
+            &[("coulomb_pos_n", 1.0), ("coulomb_neg_n", 1.0)],
+        ),
+        (EffectKind::SupplyFriction, &[("exponent", 1.0)]),
+    ];
+    let travelled = |supply_v: f64| {
+        let mut p = axis(&effects);
+        p.set_supply(supply_v);
+        let start = p.truth().position;
+        for _ in 0..500 {
+            p.step(1.5, 1e-3);
+        }
+        p.truth().position - start
+    };
+    // Nominal: 0.5 N net for 0.5 s accelerates the 2 kg body, y = a t² / 2.
+    let nominal = travelled(24.0);
+    let expected = 0.5 / M * 0.5 * 0.5 * 0.5;
+    assert!((nominal - expected).abs() < 1e-3 * expected, "{nominal}");
+    // Double supply: 2 N of friction holds the 1.5 N push.
+    assert_eq!(travelled(48.0), 0.0);
+    // Half supply: 0.5 N of friction, 1 N net.
+    let half = travelled(12.0);
+    assert!((half - 2.0 * expected).abs() < 1e-3 * expected, "{half}");
+}

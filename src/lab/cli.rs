@@ -17,9 +17,10 @@ use super::signals::{prepare, Prepared};
 /// Where the data is and which columns hold what.
 #[derive(Debug, Clone, Args)]
 pub struct DataArgs {
-    /// Data file: CSV with a header row, or an MCAP recording of the daemon.
-    #[arg(long)]
-    pub data: PathBuf,
+    /// Data file: CSV with a header row, or an MCAP recording of the daemon. Repeat it to take
+    /// several records together (e.g. one per supply pressure): each stays a stretch of its own.
+    #[arg(long, required = true)]
+    pub data: Vec<PathBuf>,
     /// CSV column with the time in s.
     #[arg(long, default_value = "time")]
     pub time: String,
@@ -148,7 +149,12 @@ fn load_data(a: &DataArgs) -> anyhow::Result<(Dataset, Prepared)> {
         supply: Some(a.supply.clone().unwrap_or_else(|| "supply".into())),
         current: Some(a.current.clone().unwrap_or_else(|| "i".into())),
     };
-    let data = load(&a.data, &cols)?;
+    let data = Dataset::concat(
+        a.data
+            .iter()
+            .map(|p| load(p, &cols))
+            .collect::<Result<Vec<_>, _>>()?,
+    )?;
     if let Some(fc) = a.cutoff_hz {
         if !(fc > 0.0 && fc.is_finite()) {
             anyhow::bail!("--cutoff-hz must be > 0, got {fc}");

@@ -158,19 +158,33 @@ pub fn id_comparison(fit: &IdFit, unit: &str, note: &str) -> anyhow::Result<Comp
 }
 
 fn free_run(model: &Model, data: &Dataset, unit: &str) -> anyhow::Result<Comparison> {
-    let mut plant = model.spec.build_named(&model.name)?;
     let n = data.len();
     let mut predicted = Vec::with_capacity(n);
-    let start = plant.truth().position;
-    let shift = data.output[0] - start;
-    predicted.push(start + shift);
-    for k in 1..n {
-        if let Some(s) = &data.supply {
-            plant.set_supply(s[k - 1]);
+    let segments = data.segments();
+    let mut shifts = Vec::with_capacity(segments.len());
+    // Each continuous stretch is simulated from rest, shifted to its first sample: nothing is
+    // known of the plant across a gap.
+    for r in &segments {
+        let mut plant = model.spec.build_named(&model.name)?;
+        let start = plant.truth().position;
+        let shift = data.output[r.start] - start;
+        shifts.push(shift);
+        predicted.push(start + shift);
+        for k in r.start + 1..r.end {
+            if let Some(s) = &data.supply {
+                plant.set_supply(s[k - 1]);
+            }
+            plant.step(data.input[k - 1], data.time[k] - data.time[k - 1]);
+            predicted.push(plant.truth().position + shift);
         }
-        plant.step(data.input[k - 1], data.time[k] - data.time[k - 1]);
-        predicted.push(plant.truth().position + shift);
     }
+    let note = match shifts.as_slice() {
+        [one] => format!("simulated from rest, shifted by {one:.3e} {unit} to the first sample"),
+        many => format!(
+            "each of {} stretches simulated from rest, shifted to its first sample",
+            many.len()
+        ),
+    };
     Comparison::from_series(
         Mode::FreeRun,
         "position",
@@ -178,7 +192,7 @@ fn free_run(model: &Model, data: &Dataset, unit: &str) -> anyhow::Result<Compari
         (0..n).collect(),
         data.output.clone(),
         predicted,
-        format!("simulated from rest, shifted by {shift:.3e} {unit} to the first sample"),
+        note,
     )
 }
 
@@ -214,12 +228,19 @@ fn k_step(
     let acc = model_acceleration(model, data, prep)?;
     let n = prep.y.len();
     let dt = prep.dt;
-    let edge = prep.valid.iter().position(|v| *v).unwrap_or(0).min(n / 4);
+    // Stretch of each sample: a prediction never reaches across a gap in the time.
+    let mut stretch = vec![0usize; n];
+    for (i, &start) in prep.segment_starts.iter().enumerate() {
+        let end = prep.segment_starts.get(i + 1).copied().unwrap_or(n).min(n);
+        stretch[start.min(end)..end].fill(i);
+    }
     let mut index = Vec::new();
     let mut predicted = Vec::new();
     let mut measured = Vec::new();
-    let mut k0 = edge;
-    while k0 + k < n.saturating_sub(edge) {
+    for k0 in 0..n.saturating_sub(k) {
+        if !(prep.interior[k0] && prep.interior[k0 + k] && stretch[k0] == stretch[k0 + k]) {
+            continue;
+        }
         // y(k0+K) = y(k0) + K T v(k0) + ∫₀^{KT} (KT - s) a(t0 + s) ds by the trapezoidal rule,
         // T² (K/2 a(k0) + Σ_{i=1}^{K-1} (K - i) a(k0+i)): a(k) is the acceleration at t_k (the
         // filtered derivative), not held over the sample after it; weighting it as held shifts
@@ -234,7 +255,6 @@ fn k_step(
         // what the filter took out of the raw one no model predicts (an output-error fit
         // against it biased the mass by 12 %).
         measured.push(prep.y[k0 + k]);
-        k0 += 1;
     }
     Comparison::from_series(
         Mode::KStep,

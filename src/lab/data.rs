@@ -43,6 +43,10 @@ impl fmt::Display for DataError {
 
 impl std::error::Error for DataError {}
 
+/// A time step longer than this many periods is a gap: the samples after it are a new
+/// continuous stretch.
+pub const GAP_PERIODS: f64 = 5.0;
+
 /// A data set: equally long series, SI units.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Dataset {
@@ -71,13 +75,77 @@ impl Dataset {
         self.time.is_empty()
     }
 
-    /// Mean sample period in s: `T_0 = (t_N - t_1) / (N - 1)`.
+    /// Sample period in s: the median time step, so that the gaps between continuous stretches
+    /// (see [`Dataset::segments`]) do not count.
     pub fn period_s(&self) -> f64 {
         let n = self.len();
         if n < 2 {
             return 0.0;
         }
-        (self.time[n - 1] - self.time[0]) / (n - 1) as f64
+        let mut steps: Vec<f64> = self.time.windows(2).map(|w| w[1] - w[0]).collect();
+        let mid = steps.len() / 2;
+        let (_, median, _) = steps.select_nth_unstable_by(mid, f64::total_cmp);
+        *median
+    }
+
+    /// The continuous stretches of the record, as sample ranges: a time step longer than
+    /// [`GAP_PERIODS`] periods starts a new one (a gap in the logging, or the next file of
+    /// several given together). Derivatives are taken within a stretch, never across a gap.
+    pub fn segments(&self) -> Vec<std::ops::Range<usize>> {
+        let n = self.len();
+        let gap = GAP_PERIODS * self.period_s();
+        let mut out = Vec::new();
+        let mut start = 0;
+        for k in 1..n {
+            if self.time[k] - self.time[k - 1] > gap {
+                out.push(start..k);
+                start = k;
+            }
+        }
+        if n > 0 {
+            out.push(start..n);
+        }
+        out
+    }
+
+    /// Several data sets as one, each after the last with a gap of [`GAP_PERIODS`] × 2 periods
+    /// so that each stays a stretch of its own. All must record the same signals.
+    pub fn concat(sets: Vec<Dataset>) -> Result<Dataset, DataError> {
+        let mut it = sets.into_iter();
+        let Some(mut all) = it.next() else {
+            return Err(DataError("no data set given".into()));
+        };
+        for d in it {
+            for (name, a, b) in [
+                ("supply", all.supply.is_some(), d.supply.is_some()),
+                ("current", all.current.is_some(), d.current.is_some()),
+            ] {
+                if a != b {
+                    return Err(DataError(format!(
+                        "{}: {} a {name} column, {} not: every data set given together must \
+                         record the same signals",
+                        d.origin,
+                        if b { "has" } else { "lacks" },
+                        all.origin
+                    )));
+                }
+            }
+            let (Some(&end), Some(&first)) = (all.time.last(), d.time.first()) else {
+                continue;
+            };
+            let shift = end + 2.0 * GAP_PERIODS * all.period_s().max(d.period_s()) - first;
+            all.time.extend(d.time.iter().map(|t| t + shift));
+            all.input.extend(d.input);
+            all.output.extend(d.output);
+            if let (Some(a), Some(b)) = (all.supply.as_mut(), d.supply) {
+                a.extend(b);
+            }
+            if let (Some(a), Some(b)) = (all.current.as_mut(), d.current) {
+                a.extend(b);
+            }
+            all.origin = format!("{} + {}", all.origin, d.origin);
+        }
+        Ok(all)
     }
 
     /// Samples `range` as a data set of their own.
@@ -127,10 +195,13 @@ impl Dataset {
                     self.time[k - 1]
                 )));
             }
-            if dt > 5.0 * t0 || dt < 0.2 * t0 {
+            // Steps over GAP_PERIODS periods are gaps between stretches (a lost period or two
+            // of a recording is not); one under a fifth of the period is jitter the filter
+            // cannot take.
+            if dt < 0.2 * t0 {
                 return Err(DataError(format!(
-                    "{}: sample {}: time step {dt} s far from the mean period {t0} s (gaps or \
-                     jitter; resample the data first)",
+                    "{}: sample {}: time step {dt} s far from the period {t0} s (jitter; \
+                     resample the data first)",
                     self.origin,
                     k + 1
                 )));
@@ -668,5 +739,52 @@ mod tests {
         let d = parse_csv(&s, "d.csv", &Columns::default()).expect("parses");
         let err = d.validate().unwrap_err();
         assert!(err.to_string().contains("sample 31"), "{err}");
+    }
+
+    fn ramp(origin: &str, n: usize, dt: f64, supply: bool) -> Dataset {
+        let time: Vec<f64> = (0..n).map(|k| 3.0 + k as f64 * dt).collect();
+        Dataset {
+            origin: origin.into(),
+            output: time.iter().map(|t| 0.01 * t).collect(),
+            input: vec![1.0; n],
+            supply: supply.then(|| vec![24.0; n]),
+            current: None,
+            time,
+        }
+    }
+
+    #[test]
+    fn records_given_together_stay_stretches_of_their_own() {
+        let all = Dataset::concat(vec![
+            ramp("a.csv", 100, 1e-3, true),
+            ramp("b.csv", 60, 1e-3, true),
+        ])
+        .expect("same signals");
+        all.validate().expect("a gap is not jitter");
+        assert_eq!(all.segments(), vec![0..100, 100..160]);
+        assert!((all.period_s() - 1e-3).abs() < 1e-12, "{}", all.period_s());
+        assert_eq!(all.origin, "a.csv + b.csv");
+        assert!(all.time[100] - all.time[99] > GAP_PERIODS * 1e-3);
+        // A lost period or two of a recording is no gap.
+        let mut lossy = ramp("c.csv", 100, 1e-3, false);
+        for t in &mut lossy.time[50..] {
+            *t += 2e-3;
+        }
+        lossy.validate().expect("valid");
+        assert_eq!(lossy.segments(), vec![0..100]);
+    }
+
+    #[test]
+    fn records_with_different_signals_are_refused_by_name() {
+        let err = Dataset::concat(vec![
+            ramp("a.csv", 100, 1e-3, true),
+            ramp("b.csv", 100, 1e-3, false),
+        ])
+        .unwrap_err();
+        assert!(
+            err.to_string()
+                .starts_with("b.csv: lacks a supply column, a.csv not"),
+            "{err}"
+        );
     }
 }

@@ -97,6 +97,7 @@ pub const CATALOGUE: &[EffectKind] = &[
     EffectKind::DirectionAsymmetry,
     EffectKind::Deadzone,
     EffectKind::SupplyGain,
+    EffectKind::SupplyFriction,
     EffectKind::DeadTime,
     EffectKind::Saturation,
     EffectKind::Payload,
@@ -310,6 +311,25 @@ fn evidence(kind: EffectKind, base: &IdFit, data: &Dataset, d: &Prepared, unit: 
                 corr(r, &at(&|k| s[k] * d.u[k])),
                 corr(r, &at(&|k| s[k]))
             ),
+            None => "no supply recorded".into(),
+        },
+        EffectKind::SupplyFriction => match &d.supply {
+            Some(s) => {
+                // The friction the residual carries, signed as the friction opposing motion.
+                let fr = at(&|k| d.v[k].signum());
+                let rf: Vec<f64> = r.iter().zip(&fr).map(|(x, g)| x * g).collect();
+                let sup = at(&|k| s[k]);
+                let mut sorted = sup.clone();
+                sorted.sort_by(f64::total_cmp);
+                let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+                let (hi, _) = mean_where(&rf, idx, |k| s[k] > median);
+                let (lo, _) = mean_where(&rf, idx, |k| s[k] <= median);
+                format!(
+                    "friction in the residual follows the supply: residual times sign(v) correlates \
+                     {:+.2} with the supply, mean {hi:+.3e} {unit} above its median, {lo:+.3e} below",
+                    corr(&rf, &sup)
+                )
+            }
             None => "no supply recorded".into(),
         },
         EffectKind::DeadTime => format!(

@@ -66,6 +66,9 @@ pub struct Balance {
     pub breakaway_free: bool,
     /// Corner (Hz) and sample period (s) of the smoothing of the friction demanded at rest.
     pub rest_filter: (f64, f64),
+    /// Factor of the dry friction levels per sample when they follow the supply
+    /// (`supply_friction`): the breakaway band at rest scales with it.
+    pub dry_scale: Option<Vec<f64>>,
 }
 
 /// The result of fitting (or just evaluating) a balance.
@@ -126,7 +129,7 @@ pub fn representable(family: Family, kind: EffectKind, d: &Prepared) -> bool {
                         | E::DeadTime
                         | E::Saturation
                 )
-                || kind == E::SupplyGain && d.supply.is_some()
+                || matches!(kind, E::SupplyGain | E::SupplyFriction) && d.supply.is_some()
         }
         Family::Solenoid => {
             common
@@ -138,7 +141,7 @@ pub fn representable(family: Family, kind: EffectKind, d: &Prepared) -> bool {
         Family::Pneumatic => {
             common
                 || matches!(kind, E::Deadzone | E::DeadTime | E::Saturation)
-                || kind == E::SupplyGain && d.supply.is_some()
+                || matches!(kind, E::SupplyGain | E::SupplyFriction) && d.supply.is_some()
         }
         Family::MotorGear => common || super::regress_gear::representable(kind, d),
     }
@@ -271,7 +274,8 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
     } else {
         body_drive_terms(spec, raw, d, &mut terms, &mut nonlinear)?;
     }
-    load_terms(spec, d, &mut terms, &mut nonlinear);
+    let dry_scale = dry_scale(spec, raw, &mut nonlinear);
+    load_terms(spec, d, dry_scale.as_deref(), &mut terms, &mut nonlinear);
     let n = d.y.len();
     let index = (0..n).filter(|&k| d.valid[k]).collect();
     let stiction = spec.effects.iter().any(|e| e.kind == EffectKind::Stiction);
@@ -295,7 +299,33 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
         breakaway,
         breakaway_free,
         rest_filter: (0.25 * d.cutoff_hz, d.dt),
+        dry_scale,
     })
+}
+
+/// Factor of the dry friction levels per sample, `(S / S_nom)^κ_f`, when the model's friction
+/// follows the supply (`supply_friction`); `None` otherwise.
+fn dry_scale(
+    spec: &PlantSpec,
+    raw: &Dataset,
+    nonlinear: &mut Vec<(String, f64)>,
+) -> Option<Vec<f64>> {
+    let effect = spec
+        .effects
+        .iter()
+        .any(|e| e.kind == EffectKind::SupplyFriction);
+    if !effect || raw.supply.is_none() {
+        return None;
+    }
+    let kappa = p(spec, "supply_friction.exponent");
+    nonlinear.push(("supply_friction.exponent".to_string(), kappa));
+    let f = crate::physics::effects::SupplyFriction { exponent: kappa };
+    Some(
+        supply_ratio(spec, raw)
+            .into_iter()
+            .map(|r| f.factor(r))
+            .collect(),
+    )
 }
 
 /// Largest acceleration at rest, as a fraction of the 95 % quantile of `|a|`.
@@ -321,7 +351,11 @@ pub fn standstill_samples(d: &Prepared) -> Vec<usize> {
     let a_rest = REST_ACCELERATION * abs_quantile(&d.a[first..=last], 0.95);
     (first..=last)
         .filter(|&k| {
-            !d.valid[k] && d.a[k].abs() <= a_rest && d.y[k] > lo + margin && d.y[k] < hi - margin
+            d.interior[k]
+                && !d.valid[k]
+                && d.a[k].abs() <= a_rest
+                && d.y[k] > lo + margin
+                && d.y[k] < hi - margin
         })
         .collect()
 }
@@ -568,6 +602,7 @@ fn body_drive_terms(
 fn load_terms(
     spec: &PlantSpec,
     d: &Prepared,
+    dry_scale: Option<&[f64]>,
     terms: &mut Vec<Term>,
     nonlinear: &mut Vec<(String, f64)>,
 ) {
@@ -575,6 +610,12 @@ fn load_terms(
     let has = |k: EffectKind| spec.effects.iter().any(|e| e.kind == k);
     // Resisting forces.
     let one = |cond: &dyn Fn(usize) -> f64| (0..n).map(cond).collect::<Vec<f64>>();
+    // Dry friction columns carry the supply's factor when the friction follows the supply.
+    let dry = |cond: &dyn Fn(usize) -> f64| {
+        (0..n)
+            .map(|k| cond(k) * dry_scale.map_or(1.0, |s| s[k]))
+            .collect::<Vec<f64>>()
+    };
     if has(EffectKind::Viscous) {
         let fs = damping_suffix(spec);
         terms.push(param_term(
@@ -593,12 +634,12 @@ fn load_terms(
         terms.push(param_term(
             spec,
             &format!("coulomb.coulomb_pos{fsx}"),
-            one(&|k| if d.v[k] > 0.0 { 1.0 } else { 0.0 }),
+            dry(&|k| if d.v[k] > 0.0 { 1.0 } else { 0.0 }),
         ));
         terms.push(param_term(
             spec,
             &format!("coulomb.coulomb_neg{fsx}"),
-            one(&|k| if d.v[k] < 0.0 { -1.0 } else { 0.0 }),
+            dry(&|k| if d.v[k] < 0.0 { -1.0 } else { 0.0 }),
         ));
     }
     if has(EffectKind::Stribeck) {
@@ -609,7 +650,7 @@ fn load_terms(
         terms.push(param_term(
             spec,
             &format!("stribeck.excess_pos{fsx}"),
-            one(&|k| {
+            dry(&|k| {
                 if d.v[k] > 0.0 {
                     (-d.v[k] / vp).exp()
                 } else {
@@ -620,7 +661,7 @@ fn load_terms(
         terms.push(param_term(
             spec,
             &format!("stribeck.excess_neg{fsx}"),
-            one(&|k| {
+            dry(&|k| {
                 if d.v[k] < 0.0 {
                     -(d.v[k] / vn).exp()
                 } else {
@@ -775,6 +816,11 @@ impl Balance {
         }
     }
 
+    /// Factor of the dry friction levels at sample `k` (1 unless they follow the supply).
+    fn dry_factor(&self, k: usize) -> f64 {
+        self.dry_scale.as_ref().map_or(1.0, |s| s[k])
+    }
+
     /// Samples at rest within the span of `index`.
     fn standstill_in(&self, index: &[usize]) -> Vec<usize> {
         match (index.first(), index.last()) {
@@ -795,7 +841,7 @@ impl Balance {
         let f = self.friction_demanded(values);
         self.standstill_in(index)
             .iter()
-            .map(|&k| f[k])
+            .map(|&k| f[k] / self.dry_factor(k))
             .fold((pos, neg), |(p, n), f| (p.max(f), n.max(-f)))
     }
 
@@ -827,10 +873,13 @@ impl Balance {
         // at it): zero for a body the model can hold.
         let tolerance =
             (residual.iter().map(|r| r * r).sum::<f64>() / residual.len().max(1) as f64).sqrt();
-        let (hi, lo) = (band.0 + tolerance, -band.1 - tolerance);
         let standstill_residual: Vec<f64> = standstill
             .iter()
-            .map(|&k| demanded[k] - demanded[k].clamp(lo, hi))
+            .map(|&k| {
+                let s = self.dry_factor(k);
+                let (hi, lo) = (band.0 * s + tolerance, -band.1 * s - tolerance);
+                demanded[k] - demanded[k].clamp(lo, hi)
+            })
             .collect();
         // Rest and motion count as two regimes of equal weight: a record spends little time at
         // rest, yet an error there is as much an error of the model. Too few samples at rest
@@ -1041,6 +1090,10 @@ pub fn grid_for(
         }
         EffectKind::SupplyGain => vec![(
             "supply_gain.exponent".to_string(),
+            (0..=20).map(|i| i as f64 * 0.25).collect(),
+        )],
+        EffectKind::SupplyFriction => vec![(
+            "supply_friction.exponent".to_string(),
             (0..=20).map(|i| i as f64 * 0.25).collect(),
         )],
         EffectKind::DeadTime => vec![(

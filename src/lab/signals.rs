@@ -25,8 +25,12 @@ pub struct Prepared {
     pub supply: Option<Vec<f64>>,
     /// Speed below which a sample counts as standstill.
     pub v_standstill: f64,
-    /// Samples usable for the regression: moving, away from the filter's start-up at both ends.
+    /// Samples away from the filter's start-up at both ends of each continuous stretch.
+    pub interior: Vec<bool>,
+    /// Samples usable for the regression: moving, and interior.
     pub valid: Vec<bool>,
+    /// First sample of each continuous stretch (0 first; more after gaps in the time).
+    pub segment_starts: Vec<usize>,
     /// Number of statistically independent samples, `N_eff = 2 f_c N T_0` (the residual of a
     /// band-limited regression is correlated over about `1/(2 f_c)`), at most `N`.
     pub n_eff_per_sample: f64,
@@ -95,28 +99,90 @@ pub fn abs_quantile(x: &[f64], q: f64) -> f64 {
     *m
 }
 
-/// Filter and differentiate a data set. `cutoff_hz` defaults to [`default_cutoff_hz`]. The
-/// position and its derivatives are made on one thread, the command, current and supply on
-/// another.
+/// Filter and differentiate a data set, each continuous stretch ([`Dataset::segments`]) on its
+/// own. `cutoff_hz` defaults to [`default_cutoff_hz`].
 pub fn prepare(d: &Dataset, cutoff_hz: Option<f64>) -> Prepared {
     let dt = d.period_s();
     let fc = cutoff_hz
         .unwrap_or_else(|| default_cutoff_hz(dt))
         .min(0.45 / dt);
+    let segments = d.segments();
     let n = d.output.len();
+    let mut p = if segments.len() <= 1 {
+        prepare_stretch(d, fc, dt)
+    } else {
+        let mut all = Stretch::default();
+        for r in &segments {
+            let part = prepare_stretch(&d.slice(r.clone()), fc, dt);
+            all.append(part);
+        }
+        all
+    };
     // Four passes of a first-order lag: the start-up lasts a few time constants 1/(2π f_c).
-    let edge = ((3.0 / (2.0 * std::f64::consts::PI * fc * dt)).ceil() as usize + 2).min(n / 4);
+    let edge = (3.0 / (2.0 * std::f64::consts::PI * fc * dt)).ceil() as usize + 2;
+    let mut interior = vec![false; n];
+    for r in &segments {
+        let e = edge.min(r.len() / 4);
+        for flag in &mut interior[r.start + e..r.end.saturating_sub(e).max(r.start + e)] {
+            *flag = true;
+        }
+    }
+    let v_standstill = 0.03 * abs_quantile(&p.v, 0.95);
+    let valid =
+        p.v.iter()
+            .zip(&interior)
+            .map(|(vk, inside)| *inside && vk.abs() > v_standstill)
+            .collect();
+    Prepared {
+        dt,
+        cutoff_hz: fc,
+        y: std::mem::take(&mut p.y),
+        v: std::mem::take(&mut p.v),
+        a: std::mem::take(&mut p.a),
+        u: std::mem::take(&mut p.u),
+        current: p.current.take(),
+        supply: p.supply.take(),
+        v_standstill,
+        interior,
+        valid,
+        segment_starts: segments.iter().map(|r| r.start).collect(),
+        n_eff_per_sample: (2.0 * fc * dt).min(1.0),
+    }
+}
+
+/// Filtered signals of one continuous stretch.
+#[derive(Default)]
+struct Stretch {
+    y: Vec<f64>,
+    v: Vec<f64>,
+    a: Vec<f64>,
+    u: Vec<f64>,
+    current: Option<Vec<f64>>,
+    supply: Option<Vec<f64>>,
+}
+
+impl Stretch {
+    fn append(&mut self, mut o: Stretch) {
+        self.y.append(&mut o.y);
+        self.v.append(&mut o.v);
+        self.a.append(&mut o.a);
+        self.u.append(&mut o.u);
+        for (mine, theirs) in [(&mut self.current, o.current), (&mut self.supply, o.supply)] {
+            if let Some(t) = theirs {
+                mine.get_or_insert_with(Vec::new).extend(t);
+            }
+        }
+    }
+}
+
+/// The position and its derivatives on one thread, the command, current and supply on another.
+fn prepare_stretch(d: &Dataset, fc: f64, dt: f64) -> Stretch {
+    let n = d.output.len();
     let motion = || {
         let y = zero_phase(&d.output, fc, dt);
         let v = derivative(&y, dt);
         let a = derivative(&v, dt);
-        let v_standstill = 0.03 * abs_quantile(&v, 0.95);
-        let valid = v
-            .iter()
-            .enumerate()
-            .map(|(k, vk)| k >= edge && k + edge < n && vk.abs() > v_standstill)
-            .collect();
-        (y, v, a, v_standstill, valid)
+        (y, v, a)
     };
     let drive = || {
         (
@@ -125,7 +191,7 @@ pub fn prepare(d: &Dataset, cutoff_hz: Option<f64>) -> Prepared {
             d.supply.as_ref().map(|c| zero_phase(c, fc, dt)),
         )
     };
-    let ((y, v, a, v_standstill, valid), (u, current, supply)) = if n < PARALLEL_SAMPLES {
+    let ((y, v, a), (u, current, supply)) = if n < PARALLEL_SAMPLES {
         (motion(), drive())
     } else {
         std::thread::scope(|s| {
@@ -139,18 +205,13 @@ pub fn prepare(d: &Dataset, cutoff_hz: Option<f64>) -> Prepared {
             )
         })
     };
-    Prepared {
-        dt,
-        cutoff_hz: fc,
+    Stretch {
         y,
         v,
         a,
         u,
         current,
         supply,
-        v_standstill,
-        valid,
-        n_eff_per_sample: (2.0 * fc * dt).min(1.0),
     }
 }
 
@@ -207,5 +268,44 @@ mod tests {
         }
         assert_eq!(zero_phase(&x, 20.0, dt), want);
         assert!(zero_phase(&[], 20.0, dt).is_empty());
+    }
+
+    #[test]
+    fn derivatives_stop_at_a_gap_and_its_edges_are_not_used() {
+        // Two stretches of a slow sine, far apart in position: filtered across the gap, the
+        // jump would be a burst of acceleration in both.
+        let dt = 1e-3;
+        let w = 2.0 * std::f64::consts::PI;
+        let part = |t0: f64, y0: f64, n: usize| {
+            let time: Vec<f64> = (0..n).map(|k| t0 + k as f64 * dt).collect();
+            Dataset {
+                origin: "x".into(),
+                output: time.iter().map(|t| y0 + 0.01 * (w * t).sin()).collect(),
+                input: vec![0.0; n],
+                supply: None,
+                current: None,
+                time,
+            }
+        };
+        let (one, two) = (part(0.0, 0.0, 2000), part(0.0, 0.5, 2000));
+        let d = Dataset::concat(vec![one.clone(), two.clone()]).expect("concat");
+        let p = prepare(&d, None);
+        assert_eq!(p.segment_starts, vec![0, 2000]);
+        // Each stretch is prepared as if it came alone.
+        for (alone, offset) in [(prepare(&one, None), 0), (prepare(&two, None), 2000)] {
+            for (k, a) in alone.a.iter().enumerate() {
+                let b = p.a[offset + k];
+                assert!(
+                    (a - b).abs() <= 1e-9 * a.abs().max(1.0),
+                    "a at {}: {b} vs {a}",
+                    offset + k
+                );
+            }
+        }
+        // Both ends of both stretches are outside the interior.
+        for k in [0, 1999, 2000, 3999] {
+            assert!(!p.interior[k] && !p.valid[k], "sample {k}");
+        }
+        assert!(p.interior[1000] && p.interior[3000]);
     }
 }

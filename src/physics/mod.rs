@@ -4,7 +4,8 @@
 //!
 //! - [`effects`]: one file per effect (`viscous`, `coulomb`, `stiction`, `stribeck`, `spring`,
 //!   `position_stiffness`, `backlash`, `hysteresis`, `direction_asymmetry`, `deadzone`,
-//!   `supply_gain`, `dead_time`, `saturation`, `payload`, `offset`, `varying_ratio`), each a small
+//!   `supply_gain`, `supply_friction`, `dead_time`, `saturation`, `payload`, `offset`,
+//!   `varying_ratio`), each a small
 //!   `Copy` struct with its equation, its parameters (name, quantity, bounds, default) and the
 //!   function the families call. [`effects::EffectKind`] is the registry of names.
 //! - [`families`]: `linear_axis`, `solenoid`, `pneumatic` share one rigid body with end stops and

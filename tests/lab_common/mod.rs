@@ -55,6 +55,17 @@ pub enum Run {
     Breakaway,
 }
 
+/// The supply during a record.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub enum Supply {
+    /// The plant's nominal supply, not recorded.
+    Nominal,
+    /// A slow swing around the nominal supply, recorded.
+    Varying,
+    /// Held at this value (V, or Pa absolute for pneumatic), recorded.
+    Held(f64),
+}
+
 /// Record the plant; the supply varies slowly when `vary_supply`.
 pub fn closed_loop(
     spec: &PlantSpec,
@@ -63,7 +74,12 @@ pub fn closed_loop(
     vary_supply: bool,
     run: Run,
 ) -> Dataset {
-    closed_loop_with_fault(spec, seed, seconds, vary_supply, run, None)
+    let supply = if vary_supply {
+        Supply::Varying
+    } else {
+        Supply::Nominal
+    };
+    closed_loop_with_fault(spec, seed, seconds, supply, run, None)
 }
 
 /// [`closed_loop`] with a fault injected into the plant at a time (s).
@@ -71,7 +87,7 @@ pub fn closed_loop_with_fault(
     spec: &PlantSpec,
     seed: u64,
     seconds: f64,
-    vary_supply: bool,
+    supply_kind: Supply,
     run: Run,
     fault: Option<(f64, Fault)>,
 ) -> Dataset {
@@ -102,7 +118,7 @@ pub fn closed_loop_with_fault(
         time: Vec::with_capacity(n),
         input: Vec::with_capacity(n),
         output: Vec::with_capacity(n),
-        supply: vary_supply.then(|| Vec::with_capacity(n)),
+        supply: (supply_kind != Supply::Nominal).then(|| Vec::with_capacity(n)),
         current: matches!(spec.family, Family::Solenoid | Family::MotorGear)
             .then(|| Vec::with_capacity(n)),
     };
@@ -139,8 +155,10 @@ pub fn closed_loop_with_fault(
         } else {
             nominal * (1.0 + 0.2 * (2.0 * std::f64::consts::PI * 0.07 * t).sin())
         };
-        if vary_supply {
-            plant.set_supply(supply);
+        match supply_kind {
+            Supply::Nominal => {}
+            Supply::Varying => plant.set_supply(supply),
+            Supply::Held(s) => plant.set_supply(s),
         }
         let e = r - y;
         let deriv = (e - e_prev) / dt;

@@ -21,6 +21,7 @@ pub mod saturation;
 pub mod spring;
 pub mod stiction;
 pub mod stribeck;
+pub mod supply_friction;
 pub mod supply_gain;
 pub mod varying_ratio;
 pub mod viscous;
@@ -38,6 +39,7 @@ pub use saturation::Saturation;
 pub use spring::Spring;
 pub use stiction::Stiction;
 pub use stribeck::Stribeck;
+pub use supply_friction::SupplyFriction;
 pub use supply_gain::SupplyGain;
 pub use varying_ratio::VaryingRatio;
 pub use viscous::Viscous;
@@ -120,6 +122,7 @@ registry! {
     DirectionAsymmetry => direction_asymmetry: DirectionAsymmetry,
     Deadzone => deadzone: Deadzone,
     SupplyGain => supply_gain: SupplyGain,
+    SupplyFriction => supply_friction: SupplyFriction,
     DeadTime => dead_time: DeadTime,
     Saturation => saturation: Saturation,
     Payload => payload: Payload,
@@ -138,6 +141,9 @@ impl EffectKind {
         match self {
             EffectKind::Backlash | EffectKind::VaryingRatio => family == Family::MotorGear,
             EffectKind::PositionStiffness => family != Family::MotorGear,
+            // A seal pressed by its supply: a cylinder (a linear axis driven by a force) or the
+            // pneumatic drive; a coil's or motor's voltage presses no seal.
+            EffectKind::SupplyFriction => matches!(family, Family::LinearAxis | Family::Pneumatic),
             _ => true,
         }
     }

@@ -138,7 +138,10 @@ impl<D: Drive> BodyPlant<D> {
             v.damping_neg *= m.friction;
         }
         self.fx = fx;
-        self.dry = DryFriction::from_effects(&fx, m.friction, m.jam * self.body.jam_force);
+        let supply = fx
+            .supply_friction
+            .map_or(1.0, |s| s.factor(self.supply_ratio()));
+        self.dry = DryFriction::from_effects(&fx, m.friction * supply, m.jam * self.body.jam_force);
     }
 
     #[inline]
@@ -450,6 +453,10 @@ impl<D: Drive> Plant for BodyPlant<D> {
     fn set_supply(&mut self, value: f64) {
         if value.is_finite() {
             self.supply_ext = self.drive.supply_ratio_of(value).max(0.0);
+            if self.fx.supply_friction.is_some() {
+                // The dry friction levels follow the supply.
+                self.apply_faults();
+            }
         }
     }
 

@@ -80,11 +80,9 @@ impl Drive for AxisDrive {
     }
 
     fn supply(&self, ratio: f64) -> (f64, f64) {
-        if self.voltage {
-            (self.supply_v * ratio, 0.0)
-        } else {
-            (0.0, 0.0)
-        }
+        // A force command has no power stage of its own, but the supply of whatever makes the
+        // force is still measured (seal friction may follow it: `supply_friction`).
+        (self.supply_v * ratio, 0.0)
     }
 
     fn supply_ratio_of(&self, value: f64) -> f64 {
