@@ -41,7 +41,7 @@ impl Drop for Proc {
 /// `candump -L` on the test interface, written to `path`.
 fn candump_to(path: &Path) -> Proc {
     Proc(
-        Command::new("candump")
+        realtime(CAPTURE_PRIORITY, "candump")
             .args(["-L", &iface()])
             .stdout(std::fs::File::create(path).expect("capture file"))
             .spawn()
@@ -65,6 +65,11 @@ fn sim_node(extra: &[&str]) -> Proc {
 /// controller; on the test machine's one guest CPU an ordinary process misses the sensor
 /// deadline whenever the guest hands the CPU to another for a few periods.
 const SIM_PRIORITY: u32 = 70;
+
+/// SCHED_FIFO priority of the `candump` captures the tests read: below the simulated nodes, and
+/// real-time too, or the two real-time processes leave it too little of the one guest CPU at
+/// 1 kHz and the socket drops frames before the capture sees them.
+const CAPTURE_PRIORITY: u32 = 60;
 
 /// `program` run under SCHED_FIFO at `priority` (through `chrt`, where the test may set it),
 /// else as it is.
@@ -1053,7 +1058,7 @@ fn a_second_bus_gets_its_own_cycle_thread() {
     .expect("write");
     let capture_path = dir.path().join("capture.log");
     let mut candump = Proc(
-        Command::new("candump")
+        realtime(CAPTURE_PRIORITY, "candump")
             .args(["-L", "vcan0", "vcan1"])
             .stdout(std::fs::File::create(&capture_path).expect("capture file"))
             .spawn()

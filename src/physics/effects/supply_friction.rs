@@ -16,10 +16,7 @@ impl SupplyFriction {
     /// Factor on the dry friction levels at `ratio = S / S_nom`: `(S / S_nom)^κ_f`.
     #[inline]
     pub fn factor(&self, ratio: f64) -> f64 {
-        if ratio == 1.0 {
-            return 1.0;
-        }
-        ratio.max(0.0).powf(self.exponent)
+        super::supply_gain::ratio_power(ratio, self.exponent)
     }
 }
 

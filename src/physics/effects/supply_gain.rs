@@ -16,11 +16,17 @@ impl SupplyGain {
     /// Gain factor for a supply at `ratio = S / S_nom`.
     #[inline]
     pub fn factor(&self, ratio: f64) -> f64 {
-        if ratio == 1.0 {
-            return 1.0;
-        }
-        ratio.max(0.0).powf(self.exponent)
+        ratio_power(ratio, self.exponent)
     }
+}
+
+/// `(S / S_nom)^κ` for a supply ratio, never negative; exactly 1 at the nominal supply.
+#[inline]
+pub(crate) fn ratio_power(ratio: f64, exponent: f64) -> f64 {
+    if ratio == 1.0 {
+        return 1.0;
+    }
+    ratio.max(0.0).powf(exponent)
 }
 
 impl EffectDef for SupplyGain {
