@@ -56,6 +56,14 @@ fn model(family: Family, effects: &[EffectKind]) -> Model {
     Model::from_family(family, effects).expect("model")
 }
 
+/// The model the linear-axis records are fitted with: viscous damping and Coulomb friction.
+fn axis_model() -> Model {
+    model(
+        Family::LinearAxis,
+        &[EffectKind::Viscous, EffectKind::Coulomb],
+    )
+}
+
 fn relative(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
 }
@@ -64,10 +72,7 @@ fn relative(a: f64, b: f64) -> f64 {
 fn recursive_without_forgetting_ends_where_least_squares_does() {
     for seed in [3, 8] {
         let data = closed_loop(&axis(seed, 1.1, 4.0), seed, 12.0, false, Run::Track);
-        let m = model(
-            Family::LinearAxis,
-            &[EffectKind::Viscous, EffectKind::Coulomb],
-        );
+        let m = axis_model();
         let ls = fit(&m, &data, FitOptions::default());
         let rec = fit(
             &m,
@@ -118,10 +123,7 @@ fn recursive_with_forgetting_follows_a_friction_rise_that_the_batch_fit_averages
             Run::Track,
             Some((8.0, friction_x3)),
         );
-        let m = model(
-            Family::LinearAxis,
-            &[EffectKind::Viscous, EffectKind::Coulomb],
-        );
+        let m = axis_model();
         let ls = fit(&m, &data, FitOptions::default());
         let rec = fit(
             &m,
@@ -159,10 +161,7 @@ fn recursive_with_forgetting_follows_a_friction_rise_that_the_batch_fit_averages
 fn the_halves_of_a_record_of_an_unchanged_plant_agree() {
     for seed in [4, 9] {
         let data = closed_loop(&axis(seed, 1.2, 5.0), seed, 16.0, false, Run::Track);
-        let m = model(
-            Family::LinearAxis,
-            &[EffectKind::Viscous, EffectKind::Coulomb],
-        );
+        let m = axis_model();
         let rec = fit(
             &m,
             &data,
@@ -230,10 +229,7 @@ fn output_error_free_run_recovers_a_solenoid_and_lowers_its_criterion() {
 fn output_error_k_step_recovers_an_integrating_axis_in_closed_loop() {
     for seed in [1, 7] {
         let data = closed_loop(&axis(seed, 1.2, 5.0), seed, 12.0, false, Run::Track);
-        let m = model(
-            Family::LinearAxis,
-            &[EffectKind::Viscous, EffectKind::Coulomb],
-        );
+        let m = axis_model();
         let oe = fit(
             &m,
             &data,
@@ -295,20 +291,7 @@ fn bad_method_settings_are_refused_with_the_flag_at_fault() {
 fn the_fit_command_writes_a_model_for_every_method() {
     let dir = tempfile::tempdir().expect("tempdir");
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-    let actuator = |args: &[&str]| {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_actuator"))
-            .args(args)
-            .current_dir(dir.path())
-            .output()
-            .expect("actuator runs");
-        assert!(
-            out.status.success(),
-            "actuator {}: {}",
-            args.join(" "),
-            String::from_utf8_lossy(&out.stderr)
-        );
-        String::from_utf8_lossy(&out.stdout).to_string()
-    };
+    let actuator = |args: &[&str]| lab_common::actuator(dir.path(), args);
     let plant = root.join("config/plants/solenoid.toml");
     let config = root.join("config/solenoid.toml");
     actuator(&[

@@ -3,7 +3,6 @@
 //! single record at a held supply can show (the pneumatic cylinder of shared/data, simulated).
 
 use std::path::Path;
-use std::process::Command;
 
 use actuatord::lab::data::to_csv;
 use actuatord::physics::{EffectKind, Family, PlantSpec};
@@ -12,18 +11,7 @@ mod lab_common;
 use lab_common::{closed_loop_with_fault, sensor, Run, Supply};
 
 fn actuator(dir: &Path, args: &[&str]) -> serde_json::Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_actuator"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("actuator runs");
-    assert!(
-        out.status.success(),
-        "actuator {}: {}",
-        args.join(" "),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("JSON")
+    serde_json::from_str(&lab_common::actuator(dir, args)).expect("JSON")
 }
 
 #[test]

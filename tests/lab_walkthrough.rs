@@ -3,7 +3,8 @@
 //! the refitted model's error falls, and the report shows both models.
 
 use std::path::Path;
-use std::process::Command;
+
+mod lab_common;
 
 /// The `actuator ...` lines of the README's code block under `## The model lab`, with the
 /// comment each carries.
@@ -44,20 +45,7 @@ fn copy_dir(from: &Path, to: &Path) {
 }
 
 fn run(dir: &Path, args: &[String]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_actuator"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("actuator runs");
-    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
-    assert!(
-        out.status.success(),
-        "actuator {}: {}{}",
-        args.join(" "),
-        stdout,
-        String::from_utf8_lossy(&out.stderr)
-    );
-    stdout
+    lab_common::actuator(dir, args)
 }
 
 fn nrmse(dir: &Path, model: &[&str]) -> f64 {

@@ -172,15 +172,35 @@ fn load_model(a: &ModelArgs) -> anyhow::Result<Model> {
     }
 }
 
-fn progress_bar(total: usize) -> Option<indicatif::ProgressBar> {
-    if !std::io::stderr().is_terminal() {
-        return None;
+/// A progress bar on a terminal, made when the first report tells the total (nothing when
+/// stderr is not a terminal). Shared by reference with the worker threads that report.
+#[derive(Default)]
+struct Progress(std::sync::Mutex<Option<indicatif::ProgressBar>>);
+
+impl Progress {
+    fn report(&self, done: usize, total: usize, message: &str) {
+        let Ok(mut bar) = self.0.lock() else { return };
+        if bar.is_none() && std::io::stderr().is_terminal() {
+            let pb = indicatif::ProgressBar::new(total as u64);
+            if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}")
+            {
+                pb.set_style(style);
+            }
+            *bar = Some(pb);
+        }
+        if let Some(p) = bar.as_ref() {
+            p.set_position(done as u64);
+            p.set_message(message.to_string());
+        }
     }
-    let pb = indicatif::ProgressBar::new(total as u64);
-    if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}") {
-        pb.set_style(style);
+
+    fn finish(&self) {
+        if let Ok(bar) = self.0.lock() {
+            if let Some(p) = bar.as_ref() {
+                p.finish_and_clear();
+            }
+        }
     }
-    Some(pb)
 }
 
 /// Run a lab command and print its result.
@@ -274,24 +294,11 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 min_improvement,
                 ..DiagnoseOptions::default()
             };
-            let pb = std::sync::Mutex::new(None::<indicatif::ProgressBar>);
-            let progress = |done: usize, total: usize, name: &str| {
-                if let Ok(mut g) = pb.lock() {
-                    if g.is_none() {
-                        *g = progress_bar(total);
-                    }
-                    if let Some(p) = g.as_ref() {
-                        p.set_position(done as u64);
-                        p.set_message(name.to_string());
-                    }
-                }
-            };
-            let dg = diagnose(&m, &d, &prep, &opts, &progress)?;
-            if let Ok(g) = pb.lock() {
-                if let Some(p) = g.as_ref() {
-                    p.finish_and_clear();
-                }
-            }
+            let bar = Progress::default();
+            let dg = diagnose(&m, &d, &prep, &opts, &|done, total, name| {
+                bar.report(done, total, name)
+            })?;
+            bar.finish();
             if json {
                 println!("{}", serde_json::to_string_pretty(&dg.to_json())?);
                 return Ok(());
@@ -348,24 +355,11 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 mode,
                 k,
             };
-            let pb = std::sync::Mutex::new(None::<indicatif::ProgressBar>);
-            let progress = |done: usize, total: usize| {
-                if let Ok(mut g) = pb.lock() {
-                    if g.is_none() {
-                        *g = progress_bar(total);
-                    }
-                    if let Some(p) = g.as_ref() {
-                        p.set_position(done as u64);
-                        p.set_message(method.name());
-                    }
-                }
-            };
-            let f = fit_model(&m, &d, &prep, &opts, &progress)?;
-            if let Ok(g) = pb.lock() {
-                if let Some(p) = g.as_ref() {
-                    p.finish_and_clear();
-                }
-            }
+            let bar = Progress::default();
+            let f = fit_model(&m, &d, &prep, &opts, &|done, total| {
+                bar.report(done, total, method.name())
+            })?;
+            bar.finish();
             let (crit_mode, crit_before, crit_after) = f.criterion;
             let fitted = Model {
                 name: out

@@ -108,7 +108,14 @@ pub fn prepare(d: &Dataset, cutoff_hz: Option<f64>) -> Prepared {
         .min(0.45 / dt);
     let segments = d.segments();
     let n = d.output.len();
-    let mut p = if segments.len() <= 1 {
+    let Stretch {
+        y,
+        v,
+        a,
+        u,
+        current,
+        supply,
+    } = if segments.len() <= 1 {
         prepare_stretch(d, fc, dt)
     } else {
         let mut all = Stretch::default();
@@ -123,25 +130,24 @@ pub fn prepare(d: &Dataset, cutoff_hz: Option<f64>) -> Prepared {
     let mut interior = vec![false; n];
     for r in &segments {
         let e = edge.min(r.len() / 4);
-        for flag in &mut interior[r.start + e..r.end.saturating_sub(e).max(r.start + e)] {
-            *flag = true;
-        }
+        // e <= len / 4: the interior is never empty or inverted.
+        interior[r.start + e..r.end - e].fill(true);
     }
-    let v_standstill = 0.03 * abs_quantile(&p.v, 0.95);
-    let valid =
-        p.v.iter()
-            .zip(&interior)
-            .map(|(vk, inside)| *inside && vk.abs() > v_standstill)
-            .collect();
+    let v_standstill = 0.03 * abs_quantile(&v, 0.95);
+    let valid = v
+        .iter()
+        .zip(&interior)
+        .map(|(vk, inside)| *inside && vk.abs() > v_standstill)
+        .collect();
     Prepared {
         dt,
         cutoff_hz: fc,
-        y: std::mem::take(&mut p.y),
-        v: std::mem::take(&mut p.v),
-        a: std::mem::take(&mut p.a),
-        u: std::mem::take(&mut p.u),
-        current: p.current.take(),
-        supply: p.supply.take(),
+        y,
+        v,
+        a,
+        u,
+        current,
+        supply,
         v_standstill,
         interior,
         valid,

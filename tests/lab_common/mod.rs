@@ -1,9 +1,31 @@
 //! Shared by the lab tests: closed-loop records of the physics plants with sensor noise and
-//! quantisation, and a small deterministic generator for parameter variation.
+//! quantisation, a small deterministic generator for parameter variation, and the `actuator`
+//! command run as a user runs it.
 #![allow(dead_code)]
+
+use std::path::Path;
 
 use actuatord::lab::Dataset;
 use actuatord::physics::{Family, Fault, PlantSpec};
+
+/// Run `actuator ARGS` in `dir` as a user would; it must succeed. Returns its standard output.
+pub fn actuator<S: AsRef<str>>(dir: &Path, args: &[S]) -> String {
+    let args: Vec<&str> = args.iter().map(AsRef::as_ref).collect();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .args(&args)
+        .current_dir(dir)
+        .output()
+        .expect("actuator runs");
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "actuator {}: {}{}",
+        args.join(" "),
+        stdout,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
 
 /// A small deterministic generator for parameter variation.
 pub struct Lcg(pub u64);
