@@ -300,6 +300,8 @@ fn run(args: Args) -> anyhow::Result<()> {
                     ),
                     SimEvent::StateChanged(s) => eprintln!("actuator sim: node is {}", s.name()),
                     SimEvent::Malformed(f) => eprintln!("actuator sim: malformed frame ignored: {f}"),
+                    SimEvent::BusLost(cause) => eprintln!("actuator sim: bus fault: {cause}; waiting for the bus"),
+                    SimEvent::BusRestored { cause, outage_s } => eprintln!("actuator sim: bus back after {outage_s:.3} s of {cause}"),
                 }
                 },
             )?;

@@ -4,6 +4,7 @@ use actuatord::bus::BusError;
 use actuatord::bus::SocketCanBus;
 use actuatord::daemon::node::{NodeCounters, PreparedReload};
 use actuatord::daemon::notify::{watchdog_interval, Notifier};
+use actuatord::daemon::record_dir;
 use actuatord::daemon::state::{self, StateWriter};
 use actuatord::daemon::{
     run_cycle_with, Config, ControllerNode, CycleReport, CycleServices, CycleSettings, Recorder,
@@ -26,9 +27,20 @@ struct Args {
     #[arg(long)]
     iface: Option<String>,
     /// Record every cycle to this MCAP file (with several buses: one file per bus, named
-    /// after the interface).
-    #[arg(long)]
+    /// after the interface). An existing file is replaced: for a service use --record-dir.
+    #[arg(long, conflicts_with = "record_dir")]
     record: Option<PathBuf>,
+    /// Record every run to a new file in this directory, run-<sequence>-<UTC start time>.mcap
+    /// (one per bus with several), never overwriting one; the oldest go beyond the budget.
+    #[arg(long)]
+    record_dir: Option<PathBuf>,
+    /// With --record-dir: keep at most this many recordings, this run's included.
+    #[arg(long, default_value_t = 20)]
+    record_keep: usize,
+    /// With --record-dir: remove the oldest recordings while the earlier ones take more than
+    /// this many MiB (0: no size limit).
+    #[arg(long, default_value_t = 0)]
+    record_max_mib: u64,
     /// Stop by itself after this many seconds (default: run until SIGTERM or SIGINT).
     #[arg(long)]
     duration_s: Option<f64>,
@@ -101,11 +113,68 @@ fn record_path(record: &Path, iface: &str, buses: usize) -> PathBuf {
     record.with_file_name(format!("{stem}-{iface}.{ext}"))
 }
 
+/// Open the bus, waiting up to `[bus] startup_wait_s` for the interface to exist and be up:
+/// at boot a network manager may bring it up after us, and exiting at once would only have the
+/// service manager restart us into the same state until it gives up.
+fn open_bus(config: &Config, stop: &AtomicBool) -> anyhow::Result<SocketCanBus> {
+    let iface = &config.bus.iface;
+    let wait = std::time::Duration::from_secs_f64(config.bus.startup_wait_s);
+    let start = std::time::Instant::now();
+    let mut last_log: Option<std::time::Instant> = None;
+    loop {
+        let reason = match interface_up(iface) {
+            Ok(true) => match SocketCanBus::open(iface) {
+                Ok(bus) => {
+                    if last_log.is_some() {
+                        tracing::info!(
+                            "{iface} is up after {:.1} s: starting",
+                            start.elapsed().as_secs_f64()
+                        );
+                    }
+                    return Ok(bus);
+                }
+                Err(e) => e.to_string(),
+            },
+            Ok(false) => {
+                format!("CAN interface {iface} is down (bring it up: ip link set {iface} up)")
+            }
+            Err(e) => e.to_string(),
+        };
+        let waited = start.elapsed();
+        if waited >= wait || stop.load(Ordering::Relaxed) {
+            anyhow::bail!(
+                "{reason}; gave up after waiting {:.1} s ([bus] startup_wait_s = {})",
+                waited.as_secs_f64(),
+                config.bus.startup_wait_s
+            );
+        }
+        if last_log.is_none_or(|t| t.elapsed() >= std::time::Duration::from_secs(5)) {
+            tracing::warn!(
+                "{reason}; waiting for it ({:.0} of {} s, [bus] startup_wait_s)",
+                waited.as_secs_f64(),
+                config.bus.startup_wait_s
+            );
+            last_log = Some(std::time::Instant::now());
+        }
+        std::thread::sleep(std::time::Duration::from_millis(200).min(wait.saturating_sub(waited)));
+    }
+}
+
+/// Whether `iface` exists and is administratively up (IFF_UP in its sysfs flags).
+fn interface_up(iface: &str) -> Result<bool, BusError> {
+    let flags = Path::new("/sys/class/net").join(iface).join("flags");
+    let text = std::fs::read_to_string(&flags)
+        .map_err(|_| BusError::NoSuchInterface(iface.to_string()))?;
+    let value = u32::from_str_radix(text.trim().trim_start_matches("0x"), 16).unwrap_or(0);
+    Ok(value & libc::IFF_UP as u32 != 0)
+}
+
+#[allow(clippy::too_many_arguments)]
 fn start_bus(
     config_path: &Path,
     config: Config,
     args: &Args,
-    buses: usize,
+    record: Option<PathBuf>,
     stop: &Arc<AtomicBool>,
     ended: &tokio::sync::mpsc::UnboundedSender<usize>,
     index: usize,
@@ -120,7 +189,15 @@ fn start_bus(
         load.bits_per_s / 1000.0,
         config.bus.max_load * 100.0
     );
-    let mut bus = SocketCanBus::open(&config.bus.iface)?;
+    let mut bus = open_bus(&config, stop)?;
+    if let Some(bytes) = bus.receive_buffer_bytes() {
+        tracing::info!(
+            "{}: receive buffer {} KiB (asked for {} KiB; the kernel caps it at net.core.rmem_max)",
+            config.bus.iface,
+            bytes / 1024,
+            actuatord::bus::RECEIVE_BUFFER_BYTES / 1024
+        );
+    }
     let mut node = ControllerNode::new(&config)?;
     let (state_sink, state_writer) = match &config.state.file {
         Some(file) => {
@@ -131,10 +208,6 @@ fn start_bus(
         }
         None => (None, None),
     };
-    let record = args
-        .record
-        .as_deref()
-        .map(|r| record_path(r, &config.bus.iface, buses));
     let (sink, recorder) = Recorder::spawn(record.as_deref(), config.record.queue_depth)?;
     tracing::info!(
         config = %config_path.display(),
@@ -273,9 +346,37 @@ fn run(args: Args) -> anyhow::Result<()> {
     let stop = Arc::new(AtomicBool::new(false));
     let (ended_tx, mut ended_rx) = tokio::sync::mpsc::unbounded_channel();
     let buses = configs.len();
+    let records: Vec<Option<PathBuf>> = match (&args.record, &args.record_dir) {
+        (Some(r), _) => configs
+            .iter()
+            .map(|c| Some(record_path(r, &c.bus.iface, buses)))
+            .collect(),
+        (None, Some(dir)) => {
+            let ifaces: Vec<&str> = configs.iter().map(|c| c.bus.iface.as_str()).collect();
+            let now = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_secs());
+            let run = record_dir::prepare_run(
+                dir,
+                &ifaces,
+                record_dir::RecordBudget {
+                    max_files: args.record_keep.max(1),
+                    max_bytes: args.record_max_mib.saturating_mul(1 << 20),
+                },
+                now,
+            )?;
+            for removed in &run.removed {
+                tracing::info!("recording budget: removed {}", removed.display());
+            }
+            run.paths.into_iter().map(Some).collect()
+        }
+        (None, None) => vec![None; buses],
+    };
     let mut cycles = Vec::with_capacity(buses);
-    for (index, (path, config)) in args.config.iter().zip(configs).enumerate() {
-        match start_bus(path, config, &args, buses, &stop, &ended_tx, index) {
+    for (index, ((path, config), record)) in
+        args.config.iter().zip(configs).zip(records).enumerate()
+    {
+        match start_bus(path, config, &args, record, &stop, &ended_tx, index) {
             Ok(c) => cycles.push(c),
             Err(e) => {
                 // The buses already running get their safe state before the daemon gives up.

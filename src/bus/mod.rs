@@ -1,14 +1,16 @@
 //! Transport: frames on SocketCAN or on an in-process bus. The only layer that touches sockets.
 
 mod candump;
+mod fault;
 mod frame;
 mod inproc;
 mod socketcan_bus;
 
 pub use candump::{parse_candump_line, write_candump_line, CandumpError, CandumpRecord};
+pub use fault::BusFault;
 pub use frame::{Frame, FrameError};
 pub use inproc::{InProcBus, InProcEndpoint};
-pub use socketcan_bus::SocketCanBus;
+pub use socketcan_bus::{SocketCanBus, RECEIVE_BUFFER_BYTES};
 
 use std::time::Instant;
 
@@ -25,6 +27,13 @@ pub enum BusEvent {
 pub struct BusErrorFrame {
     pub class: u32,
     pub data: [u8; 8],
+}
+
+impl BusErrorFrame {
+    /// The controller was restarted after bus-off (by `restart-ms` or by hand): the bus is back.
+    pub fn is_restart(&self) -> bool {
+        self.class & 0x100 != 0
+    }
 }
 
 impl std::fmt::Display for BusErrorFrame {
@@ -79,4 +88,10 @@ pub trait Bus: Send {
 
     /// The interface name, for messages.
     fn name(&self) -> &str;
+
+    /// Open the connection to the interface again (it was removed and came back, so the old
+    /// socket points nowhere). Buses without such a connection have nothing to do.
+    fn reopen(&mut self) -> Result<(), BusError> {
+        Ok(())
+    }
 }

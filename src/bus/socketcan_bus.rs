@@ -6,6 +6,10 @@ use std::io::ErrorKind;
 use std::os::fd::AsRawFd;
 use std::time::{Duration, Instant};
 
+/// The receive buffer the daemon asks for: about half a second of a saturated 500 kbit/s bus
+/// (the kernel caps it at `net.core.rmem_max` and counts its own overhead per frame).
+pub const RECEIVE_BUFFER_BYTES: usize = 1 << 20;
+
 /// A raw SocketCAN socket with error frames requested, so bus-off and friends are reported.
 pub struct SocketCanBus {
     iface: String,
@@ -15,6 +19,14 @@ pub struct SocketCanBus {
 impl SocketCanBus {
     /// Open `iface`. A missing interface is reported as such, not as a bare errno.
     pub fn open(iface: &str) -> Result<Self, BusError> {
+        let socket = Self::open_socket(iface)?;
+        Ok(Self {
+            iface: iface.to_string(),
+            socket,
+        })
+    }
+
+    fn open_socket(iface: &str) -> Result<CanSocket, BusError> {
         if !std::path::Path::new("/sys/class/net").join(iface).exists() {
             return Err(BusError::NoSuchInterface(iface.to_string()));
         }
@@ -23,14 +35,42 @@ impl SocketCanBus {
             source,
         };
         let socket = CanSocket::open(iface).map_err(io)?;
+        // Error frames (bus-off, error passive, restarts, ...) arrive as events of their own.
         socket.set_error_filter_accept_all().map_err(io)?;
         // Reads never block; waiting is done with ppoll, whose timeout has nanosecond resolution
         // and costs no socket option change per call.
         socket.set_nonblocking(true).map_err(io)?;
-        Ok(Self {
-            iface: iface.to_string(),
-            socket,
-        })
+        // A burst of foreign traffic waits in the socket rather than being dropped before the
+        // cycle reads it. Best effort: the kernel caps it, and a smaller buffer still works.
+        let size = RECEIVE_BUFFER_BYTES as libc::c_int;
+        // SAFETY: a valid socket, a pointer to a c_int with its size.
+        unsafe {
+            libc::setsockopt(
+                socket.as_raw_fd(),
+                libc::SOL_SOCKET,
+                libc::SO_RCVBUF,
+                (&size as *const libc::c_int).cast(),
+                std::mem::size_of::<libc::c_int>() as libc::socklen_t,
+            )
+        };
+        Ok(socket)
+    }
+
+    /// The receive buffer the kernel granted, bytes (it doubles the request for its overhead).
+    pub fn receive_buffer_bytes(&self) -> Option<usize> {
+        let mut size: libc::c_int = 0;
+        let mut len = std::mem::size_of::<libc::c_int>() as libc::socklen_t;
+        // SAFETY: a valid socket, a pointer to a c_int and its size.
+        let rc = unsafe {
+            libc::getsockopt(
+                self.socket.as_raw_fd(),
+                libc::SOL_SOCKET,
+                libc::SO_RCVBUF,
+                (&mut size as *mut libc::c_int).cast(),
+                &mut len,
+            )
+        };
+        (rc == 0).then_some(size as usize)
     }
 
     /// Wait until a frame is readable or `timeout` passed (either way the caller reads again).
@@ -119,5 +159,10 @@ impl Bus for SocketCanBus {
 
     fn name(&self) -> &str {
         &self.iface
+    }
+
+    fn reopen(&mut self) -> Result<(), BusError> {
+        self.socket = Self::open_socket(&self.iface)?;
+        Ok(())
     }
 }

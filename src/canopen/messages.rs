@@ -542,7 +542,7 @@ const TUNED_GAIN_SIGNALS: [Signal; 7] = [
     Signal::raw("gain_source_up", 61, 1, "0 scheduled, 1 adapted"),
 ];
 
-const LOOP_STATUS_SIGNALS: [Signal; 4] = [
+const LOOP_STATUS_SIGNALS: [Signal; 5] = [
     Signal::raw(
         "overruns",
         0,
@@ -558,8 +558,14 @@ const LOOP_STATUS_SIGNALS: [Signal; 4] = [
     Signal::raw(
         "frames_malformed",
         32,
-        16,
+        8,
         "frames with a known id but a wrong length, total (wraps)",
+    ),
+    Signal::raw(
+        "bus_faults",
+        40,
+        8,
+        "bus faults (interface down or gone, bus-off, error passive, ...), total (wraps)",
     ),
     scaled(
         "cycle_latency_max",

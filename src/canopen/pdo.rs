@@ -439,12 +439,13 @@ impl FaultDiagnosisPdo {
     }
 }
 
-/// Cycle timing counters (TPDO3 of the controller). Counters wrap at 65535.
+/// Cycle timing counters (TPDO3 of the controller). Counters wrap at their width (65535, 255).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LoopStatusPdo {
     pub overruns: u16,
     pub sensor_missed: u16,
-    pub frames_malformed: u16,
+    pub frames_malformed: u8,
+    pub bus_faults: u8,
     pub cycle_latency_max_s: f64,
 }
 
@@ -457,6 +458,7 @@ impl LoopStatusPdo {
                 f64::from(self.overruns),
                 f64::from(self.sensor_missed),
                 f64::from(self.frames_malformed),
+                f64::from(self.bus_faults),
                 self.cycle_latency_max_s,
             ],
         )
@@ -464,12 +466,13 @@ impl LoopStatusPdo {
     }
 
     pub fn decode(frame: &Frame) -> Result<Self, DecodeError> {
-        let [overruns, sensor_missed, frames_malformed, cycle_latency_max_s] =
+        let [overruns, sensor_missed, frames_malformed, bus_faults, cycle_latency_max_s] =
             unpack(&LOOP_STATUS, frame)?;
         Ok(Self {
             overruns: overruns as u16,
             sensor_missed: sensor_missed as u16,
-            frames_malformed: frames_malformed as u16,
+            frames_malformed: frames_malformed as u8,
+            bus_faults: bus_faults as u8,
             cycle_latency_max_s,
         })
     }

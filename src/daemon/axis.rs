@@ -508,6 +508,12 @@ impl Axis {
         }
     }
 
+    /// The bus is back after a loss: the node's heartbeats could not reach us meanwhile, so its
+    /// heartbeat timeout starts again now instead of firing on the outage itself.
+    pub fn on_bus_restored(&mut self, now_s: f64) {
+        self.last_heartbeat_s = self.last_heartbeat_s.max(now_s);
+    }
+
     /// A new cycle: the readings held so far are from before its SYNC.
     pub fn begin_cycle(&mut self) {
         self.sensor_fresh = false;

@@ -81,6 +81,37 @@ pub struct BusConfig {
     /// to start.
     #[serde(default = "default_max_load")]
     pub max_load: f64,
+    /// What the axes do when the bus is lost (interface down or gone, bus-off).
+    #[serde(default)]
+    pub on_loss: BusLossPolicy,
+    /// At start-up, how long to wait for the interface to exist and be up before giving up.
+    #[serde(default = "default_startup_wait_s")]
+    pub startup_wait_s: f64,
+}
+
+/// The axes' policy when the bus is lost, after CiA 301's error behaviour (object 1029h).
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum BusLossPolicy {
+    /// The controller leaves operational: when the bus is back every axis gets its safe
+    /// command, and control resumes only on an NMT start (or reset) from the operator.
+    #[default]
+    SafeState,
+    /// Control resumes by itself with the first sensor frames after the bus is back.
+    Continue,
+}
+
+impl BusLossPolicy {
+    pub fn name(self) -> &'static str {
+        match self {
+            BusLossPolicy::SafeState => "safe_state",
+            BusLossPolicy::Continue => "continue",
+        }
+    }
+}
+
+fn default_startup_wait_s() -> f64 {
+    30.0
 }
 
 fn default_bitrate() -> u32 {
@@ -654,6 +685,12 @@ impl Config {
         }
         if self.bus.bitrate_bps == 0 {
             return Err(bad("[bus] bitrate_bps", "must be > 0".into()));
+        }
+        if !(self.bus.startup_wait_s.is_finite() && self.bus.startup_wait_s >= 0.0) {
+            return Err(bad(
+                "[bus] startup_wait_s",
+                format!("must be >= 0 s, got {}", self.bus.startup_wait_s),
+            ));
         }
         if !(self.bus.max_load > 0.0 && self.bus.max_load <= 1.0) {
             return Err(bad(

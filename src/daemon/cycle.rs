@@ -6,7 +6,7 @@ use super::record::{Event, Record};
 use super::recorder::RecordSink;
 use super::rt;
 use super::state::StateSink;
-use crate::bus::{Bus, BusError, BusEvent, Frame};
+use crate::bus::{Bus, BusError, BusEvent, BusFault, Frame};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender};
 use std::time::{Duration, Instant};
@@ -52,6 +52,10 @@ pub struct CycleRunner<'a> {
     record_frames: bool,
     reload: Option<Receiver<Box<PreparedReload>>>,
     retired: Option<SyncSender<Box<PreparedReload>>>,
+    /// The interface went away: the socket must be opened again before it can carry frames.
+    reopen_needed: bool,
+    /// Since a bus-off: the controller reported its restart, or a frame came in.
+    bus_alive_seen: bool,
 }
 
 impl<'a> CycleRunner<'a> {
@@ -76,6 +80,8 @@ impl<'a> CycleRunner<'a> {
             record_frames: false,
             reload: None,
             retired: None,
+            reopen_needed: false,
+            bus_alive_seen: false,
         }
     }
 
@@ -106,35 +112,139 @@ impl<'a> CycleRunner<'a> {
         self.period_ns
     }
 
-    /// Announce the node and start the actuator nodes.
+    /// Announce the node and start the actuator nodes. A bus that fails here is a bus fault
+    /// like any other: the cycle starts and waits for the bus.
     pub fn boot(&mut self) -> Result<(), BusError> {
-        let mut result = Ok(());
+        let mut error = None;
         let bus = &mut *self.bus;
         let sink = self.sink;
         self.node.boot(
             &mut |f| {
                 if let Err(e) = bus.send(f) {
-                    result = Err(e);
+                    error.get_or_insert(e);
                 }
             },
             &mut |r| sink.push(r),
         );
-        result
+        match error {
+            Some(e) => self.bus_failed(e, 0.0),
+            None => Ok(()),
+        }
+    }
+
+    /// A send or receive failed: a bus fault for the node, or the end of the run when the bus
+    /// is closed for good (an in-process bus whose peers are gone).
+    fn bus_failed(&mut self, error: BusError, t_s: f64) -> Result<(), BusError> {
+        let Some(cause) = BusFault::from_error(&error) else {
+            return Err(error);
+        };
+        if cause.needs_reopen() {
+            self.reopen_needed = true;
+        }
+        let sink = self.sink;
+        self.node.on_bus_fault(cause, t_s, &mut |r| sink.push(r));
+        if self.node.bus_lost() == Some(BusFault::BusOff) {
+            self.bus_alive_seen = false;
+        }
+        Ok(())
+    }
+
+    /// Read what is queued, at most `limit` events. `Ok(false)` when the bus was lost meanwhile.
+    fn drain(&mut self, limit: usize, t_s: f64) -> Result<bool, BusError> {
+        for _ in 0..limit {
+            match self.bus.recv_until(Instant::now()) {
+                Ok(Some(event)) => self.on_event(event, t_s),
+                Ok(None) => break,
+                Err(e) => {
+                    self.bus_failed(e, t_s)?;
+                    if self.node.bus_lost().is_some() {
+                        return Ok(false);
+                    }
+                }
+            }
+        }
+        Ok(true)
+    }
+
+    fn on_event(&mut self, event: BusEvent, t_s: f64) {
+        let sink = self.sink;
+        let mut record = |r: Record| sink.push(r);
+        match event {
+            BusEvent::Frame(frame) => {
+                self.bus_alive_seen = true;
+                if self.record_frames {
+                    record(Record::Frame {
+                        t_s,
+                        frame,
+                        received: true,
+                    });
+                }
+                self.node.handle(&frame, t_s, &mut record)
+            }
+            BusEvent::ErrorFrame(error) => {
+                self.node.counters_mut().bus_errors += 1;
+                record(Record::Event(Event::BusError { t_s, error }));
+                if error.is_restart() {
+                    self.bus_alive_seen = true;
+                }
+                if let Some(cause) = BusFault::from_error_frame(&error) {
+                    self.node.on_bus_fault(cause, t_s, &mut record);
+                    if cause == BusFault::BusOff {
+                        self.bus_alive_seen = false;
+                    }
+                }
+            }
+        }
+    }
+
+    /// A period of a lost bus: open the socket again if the interface went away, read what
+    /// came, and say whether the bus may carry this cycle's SYNC (which is the real test).
+    fn try_bus(&mut self, t_s: f64) -> Result<bool, BusError> {
+        if self.reopen_needed {
+            match self.bus.reopen() {
+                Ok(()) => self.reopen_needed = false,
+                Err(BusError::Closed) => return Err(BusError::Closed),
+                Err(_) => return Ok(false),
+            }
+        }
+        // Errors while lost only confirm the loss (and clear the socket's pending error).
+        for _ in 0..MAX_FRAMES_BEFORE_SYNC {
+            match self.bus.recv_until(Instant::now()) {
+                Ok(Some(event)) => self.on_event(event, t_s),
+                Ok(None) => break,
+                Err(BusError::Closed) => return Err(BusError::Closed),
+                Err(e) => {
+                    if BusFault::from_error(&e).is_some_and(BusFault::needs_reopen) {
+                        self.reopen_needed = true;
+                    }
+                    break;
+                }
+            }
+        }
+        // A bus-off controller queues frames without sending them: wait for its restart.
+        Ok(self.node.bus_lost() != Some(BusFault::BusOff) || self.bus_alive_seen)
     }
 
     /// Run cycle `k`, woken at `woke_ns`; returns when its last frame went out (CLOCK_MONOTONIC).
+    /// Bus faults do not end it: a lost bus makes it a short cycle that only tries the bus.
     pub fn run_once(&mut self, k: u64, woke_ns: u64) -> Result<u64, BusError> {
         let release_ns = self.release_ns(k);
         let release = self.start_instant + Duration::from_nanos(k * self.period_ns);
         let t_s = (k * self.period_ns) as f64 * 1e-9;
         let sink = self.sink;
-        let mut record = |r: Record| sink.push(r);
         if let Some(prepared) = self.reload.as_ref().and_then(|rx| rx.try_recv().ok()) {
-            let replaced = self.node.apply_reload(prepared, t_s, &mut record);
+            let replaced = self
+                .node
+                .apply_reload(prepared, t_s, &mut |r: Record| sink.push(r));
             if let Some(tx) = &self.retired {
                 // With nobody to take it, it is dropped here: a rare free, not a blocked cycle.
                 let _ = tx.try_send(replaced);
             }
+        }
+        let was_lost = self.node.bus_lost().is_some();
+        if was_lost && !self.try_bus(t_s)? {
+            self.node.bus_lost_cycle();
+            return Ok(rt::monotonic_ns());
         }
 
         // Whatever is queued now arrived before this cycle's SYNC: handle it (setpoints, NMT,
@@ -142,17 +252,27 @@ impl<'a> CycleRunner<'a> {
         // waiting, so a late frame can never pass for this cycle's and add a period of lag.
         // Bounded, so a flood of frames cannot hold the cycle here; the rest waits in the
         // socket queue (a full queue drops frames, counted by the kernel or the bus).
-        for _ in 0..MAX_FRAMES_BEFORE_SYNC {
-            match self.bus.recv_until(Instant::now())? {
-                Some(event) => on_event(self.node, event, t_s, self.record_frames, &mut record),
-                None => break,
-            }
+        if !was_lost && !self.drain(MAX_FRAMES_BEFORE_SYNC, t_s)? {
+            self.node.bus_lost_cycle();
+            return Ok(rt::monotonic_ns());
         }
         self.node.begin_cycle();
         let sync = self.node.sync_frame();
-        self.bus.send(&sync)?;
+        if let Err(e) = self.bus.send(&sync) {
+            if !was_lost {
+                self.bus_failed(e, t_s)?;
+            }
+            if self.node.bus_lost().is_some() {
+                self.node.bus_lost_cycle();
+                return Ok(rt::monotonic_ns());
+            }
+        }
+        if was_lost {
+            // SYNC went out: the bus is back, this cycle runs in full and announces the outage.
+            self.node.bus_restored(t_s, &mut |r: Record| sink.push(r));
+        }
         if self.record_frames {
-            record(Record::Frame {
+            sink.push(Record::Frame {
                 t_s,
                 frame: sync,
                 received: false,
@@ -160,9 +280,16 @@ impl<'a> CycleRunner<'a> {
         }
         let sensor_deadline = release + self.sensor_wait;
         while !self.node.all_sensors_in() {
-            match self.bus.recv_until(sensor_deadline)? {
-                Some(event) => on_event(self.node, event, t_s, self.record_frames, &mut record),
-                None => break,
+            match self.bus.recv_until(sensor_deadline) {
+                Ok(Some(event)) => self.on_event(event, t_s),
+                Ok(None) => break,
+                Err(e) => {
+                    self.bus_failed(e, t_s)?;
+                    if self.node.bus_lost().is_some() {
+                        self.node.bus_lost_cycle();
+                        return Ok(rt::monotonic_ns());
+                    }
+                }
             }
         }
         let sensors_in_ns = self.node.all_sensors_in().then(rt::monotonic_ns);
@@ -203,13 +330,14 @@ impl<'a> CycleRunner<'a> {
         }
         let sent_ns = rt::monotonic_ns();
         self.last_latency_s = sent_ns.saturating_sub(release_ns) as f64 * 1e-9;
-        match send_error {
-            Some(e) => Err(e),
-            None => Ok(sent_ns),
+        if let Some(e) = send_error {
+            self.bus_failed(e, t_s)?;
         }
+        Ok(sent_ns)
     }
 
-    /// Leave operation: the safe command to every axis.
+    /// Leave operation: the safe command to every axis. On a lost bus it cannot reach them;
+    /// that is no new error (the loss was recorded when it began).
     pub fn shutdown(&mut self) -> Result<(), BusError> {
         let mut send_error = None;
         let bus = &mut *self.bus;
@@ -218,7 +346,14 @@ impl<'a> CycleRunner<'a> {
                 send_error.get_or_insert(e);
             }
         });
-        send_error.map_or(Ok(()), Err)
+        match send_error {
+            Some(BusError::Closed) => Err(BusError::Closed),
+            Some(e) if self.node.bus_lost().is_none() => {
+                let t_s = self.node.counters().cycles as f64 * self.period_ns as f64 * 1e-9;
+                self.bus_failed(e, t_s)
+            }
+            _ => Ok(()),
+        }
     }
 }
 
@@ -338,27 +473,163 @@ pub fn run_cycle_with(
     })
 }
 
-fn on_event(
-    node: &mut ControllerNode,
-    event: BusEvent,
-    t_s: f64,
-    record_frames: bool,
-    record: &mut dyn FnMut(Record),
-) {
-    match event {
-        BusEvent::Frame(frame) => {
-            if record_frames {
-                record(Record::Frame {
-                    t_s,
-                    frame,
-                    received: true,
-                });
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::canopen::{Emcy, NmtState};
+    use crate::daemon::Config;
+    use std::path::Path;
+    use std::sync::atomic::AtomicI32;
+    use std::sync::{Arc, Mutex};
+
+    /// A bus that fails with its errno while that is not 0, and keeps what went out while up.
+    #[derive(Clone, Default)]
+    struct SwitchedBus {
+        errno: Arc<AtomicI32>,
+        sent: Arc<Mutex<Vec<Frame>>>,
+        reopened: Arc<AtomicU64>,
+    }
+
+    impl SwitchedBus {
+        fn sent(&self) -> Vec<Frame> {
+            self.sent.lock().expect("lock").clone()
+        }
+    }
+
+    impl Bus for SwitchedBus {
+        fn send(&mut self, frame: &Frame) -> Result<(), BusError> {
+            match self.errno.load(Ordering::Relaxed) {
+                0 => {
+                    self.sent.lock().expect("lock").push(*frame);
+                    Ok(())
+                }
+                e => Err(BusError::Io {
+                    iface: "test0".into(),
+                    source: std::io::Error::from_raw_os_error(e),
+                }),
             }
-            node.handle(&frame, t_s, record)
         }
-        BusEvent::ErrorFrame(error) => {
-            node.counters_mut().bus_errors += 1;
-            record(Record::Event(Event::BusError { t_s, error }));
+
+        fn recv_until(&mut self, _deadline: Instant) -> Result<Option<BusEvent>, BusError> {
+            Ok(None)
         }
+
+        fn name(&self) -> &str {
+            "test0"
+        }
+
+        fn reopen(&mut self) -> Result<(), BusError> {
+            self.reopened.fetch_add(1, Ordering::Relaxed);
+            Ok(())
+        }
+    }
+
+    fn node(on_loss: crate::daemon::config::BusLossPolicy) -> ControllerNode {
+        let mut config = Config::load(Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/config/solenoid.toml"
+        )))
+        .expect("shipped config");
+        config.bus.on_loss = on_loss;
+        ControllerNode::new(&config).expect("node")
+    }
+
+    /// Runs cycles 0..n with the bus failing with `errno` over `down`; SYNCs sent per cycle.
+    fn run(
+        node: &mut ControllerNode,
+        errno: i32,
+        down: std::ops::Range<u64>,
+        n: u64,
+    ) -> (SwitchedBus, Vec<usize>) {
+        let bus = SwitchedBus::default();
+        let mut driven = bus.clone();
+        let (sink, _rx) = RecordSink::channel(1 << 16);
+        let mut syncs_per_cycle = Vec::new();
+        let mut runner = CycleRunner::new(&mut driven, node, &sink, 0.0025, 0.0);
+        runner.boot().expect("boot");
+        for k in 0..n {
+            let e = if down.contains(&k) { errno } else { 0 };
+            bus.errno.store(e, Ordering::Relaxed);
+            let before = bus.sent().len();
+            runner
+                .run_once(k, runner.release_ns(k))
+                .expect("a bus fault is no error");
+            syncs_per_cycle.push(
+                bus.sent()[before..]
+                    .iter()
+                    .filter(|f| f.id() == 0x080)
+                    .count(),
+            );
+        }
+        (bus, syncs_per_cycle)
+    }
+
+    /// The EMCYs of the bus itself (axis 0), with their index among the frames sent.
+    fn bus_emcys(sent: &[Frame]) -> Vec<(usize, Emcy)> {
+        sent.iter()
+            .enumerate()
+            .filter(|(_, f)| f.id() == 0x081)
+            .map(|(i, f)| (i, Emcy::decode(f).expect("EMCY decodes")))
+            .filter(|(_, e)| e.axis_node_id == 0)
+            .collect()
+    }
+
+    #[test]
+    fn an_interface_going_down_is_a_fault_the_cycle_outlives() {
+        let mut n = node(crate::daemon::config::BusLossPolicy::SafeState);
+        let (bus, syncs) = run(&mut n, libc::ENETDOWN, 10..50, 60);
+        // A SYNC every period but the lost ones, and again from the first period back.
+        for (k, count) in syncs.iter().enumerate() {
+            let expected = usize::from(!(10..50).contains(&(k as u64)));
+            assert_eq!(*count, expected, "SYNCs in cycle {k}");
+        }
+        let c = n.counters();
+        assert_eq!(c.bus_faults, 1, "one outage, one fault");
+        assert_eq!(c.bus_lost_cycles, 40);
+        assert_eq!(n.bus_lost(), None);
+        // The outage is named by its EMCY, sent with the first frames after it.
+        let sent = bus.sent();
+        let emcy = bus_emcys(&sent);
+        assert_eq!(emcy.len(), 1, "{emcy:?}");
+        assert_eq!(emcy[0].1.error_code, BusFault::InterfaceDown.emcy_code());
+        // Safe state: pre-operational, the safe command out, no more commands until a start.
+        assert_eq!(n.state(), NmtState::PreOperational);
+        let back = sent
+            .iter()
+            .skip(1)
+            .position(|f| f.id() == 0x080)
+            .map(|i| i + 1);
+        assert!(back.is_some());
+        let commands_after = sent[emcy[0].0..].iter().filter(|f| f.id() == 0x210).count();
+        assert_eq!(
+            commands_after, 0,
+            "no command after the EMCY (the safe one before it)"
+        );
+        assert_eq!(
+            bus.reopened.load(Ordering::Relaxed),
+            0,
+            "a down interface keeps its socket"
+        );
+    }
+
+    #[test]
+    fn with_continue_the_axes_are_commanded_again_after_the_loss() {
+        let mut n = node(crate::daemon::config::BusLossPolicy::Continue);
+        let (bus, _) = run(&mut n, libc::ENXIO, 5..20, 30);
+        assert_eq!(n.state(), NmtState::Operational);
+        assert_eq!(n.counters().bus_faults, 1);
+        assert!(
+            bus.reopened.load(Ordering::Relaxed) >= 1,
+            "a vanished interface is opened again"
+        );
+        let sent = bus.sent();
+        let emcy = bus_emcys(&sent);
+        assert_eq!(emcy.len(), 1, "{emcy:?}");
+        assert_eq!(emcy[0].1.error_code, BusFault::InterfaceGone.emcy_code());
+        assert_eq!(
+            sent[emcy[0].0..].iter().filter(|f| f.id() == 0x210).count(),
+            10,
+            "a command in each of the 10 cycles after the loss"
+        );
     }
 }

@@ -334,6 +334,8 @@ pub struct LiveObjects {
     frames_malformed: Option<Handle>,
     frames_unknown: Option<Handle>,
     bus_errors: Option<Handle>,
+    bus_faults: Option<Handle>,
+    bus_lost_cycles: Option<Handle>,
     cycle_latency_max_us: Option<Handle>,
     cycle_latency_p99_us: Option<Handle>,
     wake_latency_max_us: Option<Handle>,
@@ -373,6 +375,8 @@ pub struct LoopFigures {
     pub frames_malformed: u64,
     pub frames_unknown: u64,
     pub bus_errors: u64,
+    pub bus_faults: u64,
+    pub bus_lost_cycles: u64,
     pub cycle_latency_max_s: f64,
     pub cycle_latency_p99_s: f64,
     pub wake_latency_max_s: f64,
@@ -397,6 +401,8 @@ impl LiveObjects {
             frames_malformed: n("frames_malformed"),
             frames_unknown: n("frames_unknown"),
             bus_errors: n("bus_errors"),
+            bus_faults: n("bus_faults"),
+            bus_lost_cycles: n("bus_lost_cycles"),
             cycle_latency_max_us: n("cycle_latency_max_us"),
             cycle_latency_p99_us: n("cycle_latency_p99_us"),
             wake_latency_max_us: n("wake_latency_max_us"),
@@ -448,6 +454,11 @@ impl LiveObjects {
             Value::Unsigned32(saturate(f.frames_unknown)),
         );
         put(self.bus_errors, Value::Unsigned32(saturate(f.bus_errors)));
+        put(self.bus_faults, Value::Unsigned32(saturate(f.bus_faults)));
+        put(
+            self.bus_lost_cycles,
+            Value::Unsigned32(saturate(f.bus_lost_cycles)),
+        );
         put(
             self.cycle_latency_max_us,
             Value::Unsigned32(us(f.cycle_latency_max_s)),

@@ -10,6 +10,7 @@ pub mod learned;
 pub mod node;
 pub mod notify;
 pub mod record;
+pub mod record_dir;
 pub mod recorder;
 pub mod rt;
 pub mod state;

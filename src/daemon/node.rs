@@ -2,10 +2,10 @@
 //! and records out through callbacks once per cycle. The cycle thread owns the I/O around it.
 
 use super::axis::{Axis, AxisStep};
-use super::config::{cycles, CommandKind, Config};
+use super::config::{cycles, BusLossPolicy, CommandKind, Config};
 use super::dictionary::{self, LiveObjects, LoopFigures, WriteEffect};
 use super::record::{CycleRecord, Event, Record};
-use crate::bus::Frame;
+use crate::bus::{BusFault, Frame};
 use crate::canopen::{
     decode_heartbeat, decode_sync, encode_heartbeat, is_heartbeat, messages, CommandPdo, Emcy,
     FaultResetPdo, LoopStatusPdo, NmtCommand, NmtState, SensorPdo, SetpointPdo, SupplyPressurePdo,
@@ -26,7 +26,23 @@ pub struct NodeCounters {
     pub overruns: u64,
     pub bus_errors: u64,
     pub faults_raised: u64,
+    /// Bus faults raised: losses and controller reports, each named in the recording.
+    pub bus_faults: u64,
+    /// Cycles run while the bus could not carry frames.
+    pub bus_lost_cycles: u64,
 }
+
+/// A bus loss in progress.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct BusLoss {
+    cause: BusFault,
+    since_s: f64,
+    cycles: u64,
+}
+
+/// A bus fault of the same cause that does not stop the bus is raised again only after this
+/// long, so a controller reporting every error frame cannot flood the log and the bus.
+const BUS_FAULT_REPEAT_S: f64 = 1.0;
 
 /// Timing facts the cycle thread measured for the cycle just run.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -133,6 +149,10 @@ pub struct ControllerNode {
     timing_warning: bool,
     /// Leaving operational: the actuators get their safe command with the next cycle.
     pending_safe: bool,
+    bus_loss: Option<BusLoss>,
+    /// EMCY of a bus fault, sent with the next cycle's frames (once the bus carries them).
+    pending_bus_emcy: Option<(BusFault, FaultState)>,
+    last_bus_fault: Option<(BusFault, f64)>,
 }
 
 /// A configuration with its dictionary and axes built, ready to be swapped in at a cycle
@@ -197,6 +217,9 @@ impl ControllerNode {
             overruns_at_window_start: 0,
             timing_warning: false,
             pending_safe: false,
+            bus_loss: None,
+            pending_bus_emcy: None,
+            last_bus_fault: None,
             node_id: config.node.node_id,
             state: NmtState::Initialising,
             last_fault_state: vec![(FaultState::Ok, 0, 0); axes.len()],
@@ -242,6 +265,89 @@ impl ControllerNode {
     /// The axes, to give them what they learned before (a state file).
     pub fn axes_mut(&mut self) -> &mut [Axis] {
         &mut self.axes
+    }
+
+    /// A bus fault: counted, recorded with its cause, announced by EMCY as soon as frames go
+    /// out again. A loss (the bus carries nothing) applies `[bus] on_loss` to the axes and
+    /// lasts until [`ControllerNode::bus_restored`]; a second fault during a loss is the same
+    /// outage.
+    pub fn on_bus_fault(&mut self, cause: BusFault, now_s: f64, record: &mut dyn FnMut(Record)) {
+        if self.bus_loss.is_some() {
+            return;
+        }
+        let lost = cause.is_loss();
+        if !lost {
+            let repeat = self
+                .last_bus_fault
+                .is_some_and(|(c, t)| c == cause && now_s - t < BUS_FAULT_REPEAT_S && now_s >= t);
+            if repeat {
+                return;
+            }
+        }
+        self.last_bus_fault = Some((cause, now_s));
+        self.counters.bus_faults += 1;
+        let policy = self.config.bus.on_loss;
+        record(Record::Event(Event::BusFault {
+            t_s: now_s,
+            cause,
+            lost,
+            policy: policy.name(),
+        }));
+        if !lost {
+            self.pending_bus_emcy = Some((cause, FaultState::Warning));
+            return;
+        }
+        self.bus_loss = Some(BusLoss {
+            cause,
+            since_s: now_s,
+            cycles: 0,
+        });
+        let state = match policy {
+            BusLossPolicy::SafeState => {
+                // CiA 301 error behaviour "pre-operational": PDOs stop, the safe command goes
+                // out first thing when the bus is back, an NMT start resumes control.
+                if self.state == NmtState::Operational {
+                    self.state = NmtState::PreOperational;
+                    self.pending_safe = true;
+                    record(Record::Event(Event::OwnState {
+                        t_s: now_s,
+                        state: self.state,
+                    }));
+                }
+                FaultState::Fault
+            }
+            BusLossPolicy::Continue => FaultState::Warning,
+        };
+        self.pending_bus_emcy = Some((cause, state));
+    }
+
+    /// The cause of the bus loss in progress, if any.
+    pub fn bus_lost(&self) -> Option<BusFault> {
+        self.bus_loss.map(|l| l.cause)
+    }
+
+    /// One period passed without a bus: counted, the axes wait (nothing to control them with).
+    pub fn bus_lost_cycle(&mut self) {
+        self.counters.bus_lost_cycles += 1;
+        if let Some(loss) = self.bus_loss.as_mut() {
+            loss.cycles += 1;
+        }
+        self.sync = self.sync.next();
+    }
+
+    /// The bus carries frames again: the EMCY naming the outage goes out with this cycle.
+    pub fn bus_restored(&mut self, now_s: f64, record: &mut dyn FnMut(Record)) {
+        if let Some(loss) = self.bus_loss.take() {
+            for axis in self.axes.iter_mut() {
+                axis.on_bus_restored(now_s);
+            }
+            record(Record::Event(Event::BusRestored {
+                t_s: now_s,
+                cause: loss.cause,
+                outage_s: (now_s - loss.since_s).max(0.0),
+                cycles_lost: loss.cycles,
+            }));
+        }
     }
 
     /// Boot: announce ourselves, start the actuator nodes, go operational (we are the NMT master).
@@ -474,6 +580,9 @@ impl ControllerNode {
         if std::mem::take(&mut self.pending_safe) {
             self.send_safe_commands(send);
         }
+        if let Some((cause, state)) = self.pending_bus_emcy.take() {
+            send(&bus_fault_emcy(cause, state).encode(self.node_id));
+        }
         if let Some(abort) = self.sdo.poll(now_s) {
             send(&abort);
         }
@@ -600,7 +709,8 @@ impl ControllerNode {
                 &LoopStatusPdo {
                     overruns: self.counters.overruns as u16,
                     sensor_missed: self.counters.sensor_missed as u16,
-                    frames_malformed: self.counters.frames_malformed as u16,
+                    frames_malformed: self.counters.frames_malformed as u8,
+                    bus_faults: self.counters.bus_faults as u8,
                     cycle_latency_max_s: self.latency_max_s,
                 }
                 .encode(self.node_id),
@@ -651,6 +761,8 @@ impl ControllerNode {
                 frames_malformed: self.counters.frames_malformed,
                 frames_unknown: self.counters.frames_unknown,
                 bus_errors: self.counters.bus_errors,
+                bus_faults: self.counters.bus_faults,
+                bus_lost_cycles: self.counters.bus_lost_cycles,
                 cycle_latency_max_s: self.latency_max_s,
                 cycle_latency_p99_s: p99,
                 wake_latency_max_s: self.wake_latency_max_s,
@@ -922,6 +1034,18 @@ fn cycle_record(
         cycle_latency: 0.0,
         sensor_to_command: 0.0,
         stage_ns: [0; STAGES],
+    }
+}
+
+/// The EMCY of a bus fault: axis 0 (the bus itself), the cause's error code, the error
+/// register's communication bit (CiA 301 bit 4), and the state the policy left the axes in.
+fn bus_fault_emcy(cause: BusFault, state: FaultState) -> Emcy {
+    Emcy {
+        error_code: cause.emcy_code(),
+        error_register: 0x11,
+        axis_node_id: 0,
+        state,
+        ..Default::default()
     }
 }
 

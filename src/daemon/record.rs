@@ -2,7 +2,7 @@
 //! real-time thread hands them over without allocating; the writer thread formats them.
 
 use super::node::STAGES;
-use crate::bus::{BusErrorFrame, Frame};
+use crate::bus::{BusErrorFrame, BusFault, Frame};
 use crate::canopen::{DecodeError, NmtState};
 use crate::supervise::{FaultKind, FaultState, SupervisedFault};
 use serde::{Deserialize, Serialize};
@@ -105,6 +105,22 @@ pub enum Event {
     BusError {
         t_s: f64,
         error: BusErrorFrame,
+    },
+    /// A bus fault: a send or receive failed, or the controller reported one. With `lost` the
+    /// bus carries no frames until [`Event::BusRestored`].
+    BusFault {
+        t_s: f64,
+        cause: BusFault,
+        lost: bool,
+        /// The policy applied to the axes (`[bus] on_loss`), when the bus is lost.
+        policy: &'static str,
+    },
+    /// The bus carries frames again after a loss: SYNC resumed at this cycle.
+    BusRestored {
+        t_s: f64,
+        cause: BusFault,
+        outage_s: f64,
+        cycles_lost: u64,
     },
     NodeState {
         t_s: f64,
@@ -211,6 +227,8 @@ impl Event {
             | Event::Malformed { t_s, .. }
             | Event::UnknownFrame { t_s, .. }
             | Event::BusError { t_s, .. }
+            | Event::BusFault { t_s, .. }
+            | Event::BusRestored { t_s, .. }
             | Event::NodeState { t_s, .. }
             | Event::OwnState { t_s, .. }
             | Event::Overrun { t_s, .. }
@@ -232,6 +250,8 @@ impl Event {
             Event::Malformed { .. } => "frame_malformed",
             Event::UnknownFrame { .. } => "frame_unknown",
             Event::BusError { .. } => "bus_error",
+            Event::BusFault { .. } => "bus_fault",
+            Event::BusRestored { .. } => "bus_restored",
             Event::NodeState { .. } => "node_state",
             Event::OwnState { .. } => "own_state",
             Event::Overrun { .. } => "overrun",
@@ -300,6 +320,28 @@ impl std::fmt::Display for Event {
                 write!(f, "t={t_s:.4}s frame with unused id ignored: {frame}")
             }
             Event::BusError { t_s, error } => write!(f, "t={t_s:.4}s {error}"),
+            Event::BusFault {
+                t_s,
+                cause,
+                lost: true,
+                policy,
+            } => write!(
+                f,
+                "t={t_s:.4}s bus fault: {cause}; bus lost, the cycle keeps its period and retries every period; axes: {policy}"
+            ),
+            Event::BusFault { t_s, cause, .. } => {
+                write!(f, "t={t_s:.4}s bus fault: {cause}; the bus still carries frames")
+            }
+            Event::BusRestored {
+                t_s,
+                cause,
+                outage_s,
+                cycles_lost,
+            } => write!(
+                f,
+                "t={t_s:.4}s bus back after {outage_s:.3} s ({cycles_lost} cycles) of {cause}: SYNC resumed, EMCY 0x{:04X} sent",
+                cause.emcy_code()
+            ),
             Event::NodeState {
                 t_s,
                 node_id,

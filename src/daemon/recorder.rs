@@ -337,9 +337,11 @@ fn log_event(e: &Event) {
         Event::FaultRaised { .. }
         | Event::Diagnosed { .. }
         | Event::Overrun { .. }
-        | Event::BusError { .. } => {
+        | Event::BusError { .. }
+        | Event::BusRestored { .. } => {
             tracing::warn!(kind = e.kind(), "{e}")
         }
+        Event::BusFault { .. } => tracing::error!(kind = e.kind(), "{e}"),
         Event::Malformed { .. } => tracing::warn!(kind = e.kind(), "{e}"),
         Event::Started {
             realtime_requested,

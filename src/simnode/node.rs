@@ -19,6 +19,13 @@ pub enum SimEvent {
     },
     StateChanged(NmtState),
     Malformed(Frame),
+    /// The bus failed (interface down or gone, ...): the node waits for it, it does not exit.
+    BusLost(crate::bus::BusFault),
+    /// The bus carries frames again after `outage_s`.
+    BusRestored {
+        cause: crate::bus::BusFault,
+        outage_s: f64,
+    },
 }
 
 /// Counters since boot.

@@ -1,11 +1,16 @@
 //! The simulated node's runtime: frames from a bus into the node, heartbeats on time.
 
 use super::node::{SimEvent, SimNode};
-use crate::bus::{Bus, BusError, BusEvent};
+use crate::bus::{Bus, BusError, BusEvent, BusFault};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
+/// While the bus is lost, it is tried this often (a real node's controller restarts as often).
+const BUS_RETRY: Duration = Duration::from_millis(10);
+
 /// Run `node` on `bus` until `stop` is set, `duration` has passed, or every other node is gone.
+/// A failing bus is waited for, as a real node's CAN controller would: the node keeps its plant
+/// and goes on where it was once frames flow again.
 pub fn run_sim_node(
     bus: &mut dyn Bus,
     node: &mut SimNode,
@@ -28,23 +33,65 @@ pub fn run_sim_node(
     let mut next_heartbeat = start + heartbeat_period;
     // Wake at least this often to notice `stop`.
     let poll = Duration::from_millis(50);
+    let mut lost: Option<(BusFault, Instant, bool)> = None;
     while !stop.load(Ordering::Relaxed) {
         let now = Instant::now();
         if end.is_some_and(|e| now >= e) {
             break;
         }
+        if let Some((cause, since, reopen)) = lost {
+            std::thread::sleep(BUS_RETRY);
+            if reopen && bus.reopen().is_err() {
+                continue;
+            }
+            // The heartbeat is the probe: it goes out when the bus is back.
+            match bus.send(&node.heartbeat()) {
+                Ok(()) => {
+                    lost = None;
+                    next_heartbeat = Instant::now() + heartbeat_period;
+                    on_event(SimEvent::BusRestored {
+                        cause,
+                        outage_s: since.elapsed().as_secs_f64(),
+                    });
+                }
+                Err(BusError::Closed) => break,
+                Err(e) => {
+                    let reopen = BusFault::from_error(&e).is_some_and(BusFault::needs_reopen);
+                    lost = Some((cause, since, reopen));
+                }
+            }
+            continue;
+        }
+        let fail = |e: BusError, on_event: &mut dyn FnMut(SimEvent)| match BusFault::from_error(&e)
+        {
+            None => None,
+            Some(cause) => {
+                on_event(SimEvent::BusLost(cause));
+                Some((cause, Instant::now(), cause.needs_reopen()))
+            }
+        };
         if now >= next_heartbeat {
-            bus.send(&node.heartbeat())?;
             next_heartbeat += heartbeat_period;
+            if let Err(e) = bus.send(&node.heartbeat()) {
+                match fail(e, on_event) {
+                    Some(l) => lost = Some(l),
+                    None => break,
+                }
+            }
             continue;
         }
         let wake = next_heartbeat.min(now + poll);
         let wake = end.map_or(wake, |e| wake.min(e));
         let event = match bus.recv_until(wake) {
             Ok(e) => e,
-            // Nobody left to talk to (the in-process bus of a finished run): a normal end.
-            Err(BusError::Closed) => break,
-            Err(e) => return Err(e),
+            Err(e) => {
+                // Nobody left to talk to (the in-process bus of a finished run): a normal end.
+                match fail(e, on_event) {
+                    Some(l) => lost = Some(l),
+                    None => break,
+                }
+                continue;
+            }
         };
         match event {
             Some(BusEvent::Frame(frame)) => {
@@ -61,9 +108,12 @@ pub fn run_sim_node(
                     on_event,
                 );
                 for f in out.iter().flatten() {
-                    match bus.send(f) {
-                        Err(BusError::Closed) => return Ok(()),
-                        other => other?,
+                    if let Err(e) = bus.send(f) {
+                        match fail(e, on_event) {
+                            Some(l) => lost = Some(l),
+                            None => return Ok(()),
+                        }
+                        break;
                     }
                 }
             }

@@ -339,6 +339,11 @@ pub fn daemon_dictionary(
             EntrySpec::ro("wake_latency_max_us", 0u32)
                 .unit("us")
                 .doc("largest delay from release time to wake-up, since start"),
+            EntrySpec::ro("bus_faults", 0u32).doc(
+                "bus faults since start: interface down or gone, bus-off, error passive, ... (wraps)",
+            ),
+            EntrySpec::ro("bus_lost_cycles", 0u32)
+                .doc("cycles run while the bus could not carry frames (wraps)"),
         ],
     );
     b.build()
