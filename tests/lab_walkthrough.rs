@@ -109,32 +109,35 @@ fn the_readme_walkthrough_names_the_missing_effect_and_the_refit_lowers_the_erro
 }
 
 /// The lab reads the daemon's own recording: a short run with setpoint steps, compared and
-/// diagnosed as MCAP, every recorded cycle a sample.
+/// diagnosed as MCAP, every recorded cycle a sample. The run is the controller node and the
+/// simulated node in lock-step, recorded by the daemon's recorder: the same records on every
+/// run, whatever the machine's load.
 #[test]
 fn the_lab_reads_a_recording_of_the_daemon() {
     use actuatord::daemon::config::SetpointStep;
-    use actuatord::demo::{run as demo, Script};
+    use actuatord::daemon::record::Record;
+    use actuatord::daemon::{Config, Recorder};
+    use actuatord::lockstep::LockStep;
     let dir = tempfile::tempdir().expect("tempdir");
     let recording = dir.path().join("steps.mcap");
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let setpoints = (0..8)
+    let mut config = Config::load(&root.join("config/solenoid.toml")).expect("config");
+    config.axis[0].setpoints = (0..8)
         .map(|i| SetpointStep {
             at_s: 0.4 * i as f64,
             position_m: if i % 2 == 0 { 0.004 } else { 0.010 },
         })
         .collect();
-    let script = Script {
-        setpoints,
-        faults: Vec::new(),
-        duration_s: 3.2,
-    };
-    demo(
-        &root.join("config/solenoid.toml"),
-        &root.join("config/plants/solenoid.toml"),
-        &script,
-        &recording,
-    )
-    .expect("demo runs");
+    let plant = actuatord::physics::load_spec(&root.join("config/plants/solenoid.toml"))
+        .expect("plant")
+        .build()
+        .expect("plant builds");
+    let mut rig = LockStep::new(&config, plant, Vec::new()).expect("lock-step rig");
+    let (sink, recorder) = Recorder::spawn(Some(&recording), 1 << 16).expect("recorder");
+    rig.run(3.2, &mut |s| sink.push(Record::Cycle(s.record)));
+    drop(sink);
+    let report = recorder.finish().expect("recording written");
+    assert_eq!(report.dropped, 0);
     let cycles = actuatord::daemon::recorder::read_cycles(&recording)
         .expect("recording")
         .len();
@@ -156,7 +159,69 @@ fn the_lab_reads_a_recording_of_the_daemon() {
     let json: serde_json::Value = serde_json::from_str(&out).expect("JSON");
     let samples = json["data_samples"].as_u64().expect("data_samples") as usize;
     assert_eq!(samples, cycles, "one sample per recorded cycle");
-    assert!(json["nrmse"].as_f64().is_some_and(f64::is_finite), "{out}");
+    let as_given = json["nrmse"].as_f64().expect("nrmse");
+    // Fitted to the recording, the model must find the simulated plant's own parameters: the
+    // recording carries what the daemon saw, and the plant file says what was there.
+    let fitted = dir.path().join("fitted.toml");
+    run(
+        dir.path(),
+        &[
+            "fit",
+            "--data",
+            &data,
+            "--family",
+            "solenoid",
+            "--with",
+            "spring,viscous,coulomb",
+            "--out",
+            &fitted.display().to_string(),
+        ]
+        .map(String::from),
+    );
+    let plant =
+        actuatord::physics::load_spec(&root.join("config/plants/solenoid.toml")).expect("plant");
+    let model: toml::Table = std::fs::read_to_string(&fitted)
+        .expect("fitted model")
+        .parse()
+        .expect("fitted model is TOML");
+    // The spring is what a few seconds of steps pin down best; the mass and the damping less so.
+    for (name, tolerance) in [
+        ("spring.stiffness_n_per_m", 0.02),
+        ("spring.pretension_n", 0.1),
+        ("solenoid.mass_kg", 0.1),
+        ("viscous.damping_pos_n_s_per_m", 0.1),
+    ] {
+        let (truth, found) = (
+            plant.get(name).expect("plant parameter"),
+            name.split_once('.')
+                .and_then(|(t, k)| model.get(t)?.get(k)?.as_float())
+                .unwrap_or_else(|| panic!("{name} in the fitted model")),
+        );
+        println!("fitted to the recording: {name} {found:.4} (plant {truth:.4})");
+        assert!(
+            (found - truth).abs() < tolerance * truth.abs(),
+            "{name}: fitted {found}, the plant has {truth}"
+        );
+    }
+    let out = run(
+        dir.path(),
+        &[
+            "compare",
+            "--data",
+            &data,
+            "--model",
+            &fitted.display().to_string(),
+            "--json",
+        ]
+        .map(String::from),
+    );
+    let json: serde_json::Value = serde_json::from_str(&out).expect("JSON");
+    let with_fit = json["nrmse"].as_f64().expect("nrmse");
+    println!("NRMSE as given {as_given:.3}, fitted {with_fit:.3}");
+    assert!(
+        with_fit < 0.1 * as_given,
+        "NRMSE fitted {with_fit} against {as_given} as given"
+    );
     let out = run(
         dir.path(),
         &[
@@ -176,4 +241,6 @@ fn the_lab_reads_a_recording_of_the_daemon() {
         json["candidates"].as_array().is_some_and(|c| !c.is_empty()),
         "{out}"
     );
+    // The simulated solenoid has Coulomb friction, which the model was given without.
+    assert_eq!(json["verdict"].as_str(), Some("coulomb"), "{out}");
 }

@@ -22,10 +22,43 @@ fn hold(p: &mut dyn Plant, u: f64, seconds: f64) {
     }
 }
 
-const K: f64 = 1.63; // K_I K_Mag, N/V
-const C: f64 = 1650.0;
-const F0: f64 = 3.0;
-const FS: f64 = 0.23;
+/// The plant's own parameters, read from its file: the checks below hold the simulated physics
+/// against hand-computed values, and the paper's figures against the plant's parameters.
+struct Solenoid {
+    /// K_I K_Mag, N/V.
+    k: f64,
+    /// Spring stiffness c, N/m.
+    c: f64,
+    /// Spring pretension F_0, N.
+    f0: f64,
+    /// Breakaway force F_S, N.
+    fs: f64,
+    m: f64,
+    d: f64,
+    ti: f64,
+    ki: f64,
+    km: f64,
+}
+
+static P: std::sync::LazyLock<Solenoid> = std::sync::LazyLock::new(|| {
+    let s = spec();
+    let get = |name: &str| s.get(name).unwrap_or_else(|| panic!("{name} in the plant"));
+    let (ki, km) = (
+        get("solenoid.current_gain_a_per_v"),
+        get("solenoid.force_constant_n_per_a"),
+    );
+    Solenoid {
+        k: ki * km,
+        c: get("spring.stiffness_n_per_m"),
+        f0: get("spring.pretension_n"),
+        fs: get("stiction.breakaway_pos_n"),
+        m: get("solenoid.mass_kg"),
+        d: get("viscous.damping_pos_n_s_per_m"),
+        ti: get("solenoid.current_time_constant_s"),
+        ki,
+        km,
+    }
+});
 
 #[test]
 fn rests_on_its_stop_below_the_pretension_threshold() {
@@ -47,14 +80,14 @@ fn static_gain_matches_paper_within_the_friction_band() {
         let mut p = plant();
         hold(p.as_mut(), u, 3.0);
         let y = p.truth().position;
-        let expected = (K * u - F0) / C;
+        let expected = (P.k * u - P.f0) / P.c;
         assert!(
-            (y - expected).abs() <= FS / C + 1e-7,
+            (y - expected).abs() <= P.fs / P.c + 1e-7,
             "U {u}: y {y} expected {expected} ± {}",
-            FS / C
+            P.fs / P.c
         );
         // DC gain 0.987 mm/V (G+).
-        assert!((K / C * 1000.0 - 0.987).abs() < 0.002);
+        assert!((P.k / P.c * 1000.0 - 0.987).abs() < 0.002);
     }
 }
 
@@ -66,12 +99,12 @@ fn breakaway_happens_exactly_at_the_stiction_level() {
     hold(p.as_mut(), 10.0, 3.0);
     let y = p.truth().position;
     assert_eq!(p.truth().velocity, 0.0);
-    let f0 = K * 10.0 - F0 - C * y;
-    assert!(f0.abs() <= FS + 1e-9);
-    let u_up = 10.0 + (FS - f0) / K;
+    let f0 = P.k * 10.0 - P.f0 - P.c * y;
+    assert!(f0.abs() <= P.fs + 1e-9);
+    let u_up = 10.0 + (P.fs - f0) / P.k;
     hold(p.as_mut(), u_up - 0.002, 2.0);
     assert_eq!(p.truth().position, y, "held below breakaway");
-    let u_down = 10.0 - (FS + f0) / K;
+    let u_down = 10.0 - (P.fs + f0) / P.k;
     hold(p.as_mut(), u_down + 0.002, 2.0);
     assert_eq!(p.truth().position, y, "held below breakaway, other side");
     hold(p.as_mut(), u_up + 0.01, 2.0);
@@ -90,9 +123,9 @@ fn linear_response_matches_the_paper_model() {
     let mut p = s.build().unwrap();
     // Operating point 8 V (y = 6.08 mm), then a 4 V step.
     hold(p.as_mut(), 8.0, 3.0);
-    let (m, d, ti, ki, km) = (0.4956, 20.0, 0.00859, 0.1, 16.3);
-    let a = Matrix3::new(0.0, 1.0, 0.0, -C / m, -d / m, km / m, 0.0, 0.0, -1.0 / ti);
-    let y_ss = |u: f64| (K * u - F0) / C;
+    let (m, d, ti, ki, km) = (P.m, P.d, P.ti, P.ki, P.km);
+    let a = Matrix3::new(0.0, 1.0, 0.0, -P.c / m, -d / m, km / m, 0.0, 0.0, -1.0 / ti);
+    let y_ss = |u: f64| (P.k * u - P.f0) / P.c;
     let x0 = Vector3::new(y_ss(8.0), 0.0, ki * 8.0);
     let x_ss = Vector3::new(y_ss(12.0), 0.0, ki * 12.0);
     assert!((p.truth().position - x0[0]).abs() < 1e-9);
@@ -108,7 +141,7 @@ fn linear_response_matches_the_paper_model() {
     // The model's poles are the paper's G+: s + 116.4 and s² + 40.4 s + 3329.4.
     assert!((1.0 / ti - 116.4).abs() < 0.1);
     assert!((d / m - 40.4).abs() < 0.05);
-    assert!((C / m - 3329.4).abs() < 1.0);
+    assert!((P.c / m - 3329.4).abs() < 1.0);
 }
 
 #[test]
@@ -139,17 +172,23 @@ fn the_four_paper_faults_change_the_statics_as_the_model_says() {
     let u = 12.0;
     let tol = 1e-9;
     // F1: pretension 1.5 × 3 N.
-    assert!((static_position(Some("spring_pretension_x1.5"), u) - (K * u - 4.5) / C).abs() < tol);
-    // F2: 1650 → 1200 N/m.
-    let k2 = 1200.0 / 1650.0;
     assert!(
-        (static_position(Some(&format!("spring_x{k2}")), u) - (K * u - F0) / 1200.0).abs() < tol
+        (static_position(Some("spring_pretension_x1.5"), u) - (P.k * u - 1.5 * P.f0) / P.c).abs()
+            < tol
+    );
+    // F2: 1650 → 1200 N/m.
+    let k2 = 1200.0 / P.c;
+    assert!(
+        (static_position(Some(&format!("spring_x{k2}")), u) - (P.k * u - P.f0) / 1200.0).abs()
+            < tol
     );
     // F4: current loop gain halved.
-    assert!((static_position(Some("current_gain_x0.5"), u) - (0.5 * K * u - F0) / C).abs() < tol);
+    assert!(
+        (static_position(Some("current_gain_x0.5"), u) - (0.5 * P.k * u - P.f0) / P.c).abs() < tol
+    );
     // Supply halved, PWM duty computed for 24 V (supply_gain exponent 1): half the voltage.
-    assert!((static_position(Some("supply_x0.5"), u) - (0.5 * K * u - F0) / C).abs() < tol);
-    assert!((static_position(None, u) - (K * u - F0) / C).abs() < tol);
+    assert!((static_position(Some("supply_x0.5"), u) - (0.5 * P.k * u - P.f0) / P.c).abs() < tol);
+    assert!((static_position(None, u) - (P.k * u - P.f0) / P.c).abs() < tol);
 }
 
 #[test]
@@ -157,9 +196,9 @@ fn friction_fault_widens_the_band_and_jamming_locks() {
     // F3: friction × 3 raises the voltage needed to leave the rest stop by 2 F_S / K.
     let mut p = plant();
     p.inject("friction_x3".parse().unwrap());
-    hold(p.as_mut(), (F0 + 3.0 * FS) / K - 0.02, 2.0);
+    hold(p.as_mut(), (P.f0 + 3.0 * P.fs) / P.k - 0.02, 2.0);
     assert_eq!(p.truth().position, 0.0);
-    hold(p.as_mut(), (F0 + 3.0 * FS) / K + 0.05, 2.0);
+    hold(p.as_mut(), (P.f0 + 3.0 * P.fs) / P.k + 0.05, 2.0);
     assert!(p.truth().position > 0.0);
     let mut q = plant();
     hold(q.as_mut(), 10.0, 2.0);
@@ -182,9 +221,9 @@ fn a_drifting_fault_grows_linearly() {
     hold(p.as_mut(), 12.0, 11.0);
     // A ramp through a first-order-like lag is followed with a delay equal to the sum of the
     // time constants, T_I + d / c, plus half a step because faults are updated per step.
-    let rate = -0.5 / 20.0 * K * 12.0 / C;
-    let lag = 0.00859 + 20.0 / C + 0.5 * 0.0025;
-    let expected = (0.75 * K * 12.0 - F0) / C - rate * lag;
+    let rate = -0.5 / 20.0 * P.k * 12.0 / P.c;
+    let lag = P.ti + P.d / P.c + 0.5 * 0.0025;
+    let expected = (0.75 * P.k * 12.0 - P.f0) / P.c - rate * lag;
     assert!(
         (p.truth().position - expected).abs() < 1e-6,
         "{}",

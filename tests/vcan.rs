@@ -1210,3 +1210,298 @@ fn learned_state_survives_a_restart_and_a_bad_state_file_is_set_aside() {
     interrupt(&mut sim);
     let _ = sim.0.wait();
 }
+
+/// Wait until the capture holds `n` SYNC frames: the loop has run that many cycles, whatever
+/// the guest's speed. Gives up (and fails) after `limit`, a guard against a hung run only.
+fn wait_for_syncs(capture: &Path, n: usize, limit: Duration) -> usize {
+    let start = std::time::Instant::now();
+    loop {
+        let count = std::fs::read_to_string(capture)
+            .map(|t| t.lines().filter(|l| l.contains(" 080#")).count())
+            .unwrap_or(0);
+        if count >= n {
+            return count;
+        }
+        assert!(
+            start.elapsed() < limit,
+            "only {count} of {n} SYNCs captured; the loop does not run"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// `ip link set IFACE up|down`: the test needs CAP_NET_ADMIN (scripts/vcan-run grants it in
+/// the user-mode kernel).
+fn link(state: &str) {
+    let status = Command::new("ip")
+        .args(["link", "set", &iface(), state])
+        .status()
+        .expect("ip (iproute2) runs");
+    assert!(
+        status.success(),
+        "ip link set {} {state}: needs CAP_NET_ADMIN (run through scripts/vcan-run)",
+        iface()
+    );
+}
+
+/// The events of a recording: (kind, message).
+fn recorded_events(path: &Path) -> Vec<(String, String)> {
+    let bytes = std::fs::read(path).expect("recording");
+    mcap::MessageStream::new(&bytes)
+        .expect("mcap")
+        .filter_map(|m| m.ok())
+        .filter(|m| m.channel.topic == "/actuatord/events")
+        .map(|m| {
+            let v: serde_json::Value = serde_json::from_slice(&m.data).expect("event json");
+            (
+                v["kind"].as_str().unwrap_or_default().to_string(),
+                v["message"].as_str().unwrap_or_default().to_string(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+#[ignore = "needs vcan0, candump, cansend and CAP_NET_ADMIN: run through scripts/vcan-run (scripts/test does)"]
+fn the_interface_goes_down_and_up_while_the_daemon_runs() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let capture_path = dir.path().join("capture.log");
+    let recording = dir.path().join("outage.mcap");
+    // -D: candump keeps capturing through the outage.
+    let mut candump = Proc(
+        realtime(CAPTURE_PRIORITY, "candump")
+            .args(["-D", "-L", &iface()])
+            .stdout(std::fs::File::create(&capture_path).expect("capture file"))
+            .spawn()
+            .expect("candump (can-utils) is installed"),
+    );
+    let mut sim = sim_node(&[]);
+    let mut daemon = Proc(
+        Command::new(env!("CARGO_BIN_EXE_actuatord"))
+            .arg("--config")
+            .arg(root("config/solenoid.toml"))
+            .args(["--iface", &iface(), "--record"])
+            .arg(&recording)
+            .spawn()
+            .expect("actuatord starts"),
+    );
+    wait_for_syncs(&capture_path, 400, Duration::from_secs(60));
+    link("down");
+    // The outage: about a second, as the user saw it.
+    std::thread::sleep(Duration::from_millis(1000));
+    assert!(
+        daemon.0.try_wait().expect("daemon status").is_none(),
+        "actuatord exited while the bus was down"
+    );
+    assert!(
+        sim.0.try_wait().expect("sim status").is_none(),
+        "actuator sim exited while the bus was down"
+    );
+    link("up");
+    let before_up = read_capture(&capture_path)
+        .iter()
+        .filter(|(_, f)| f.id() == 0x080)
+        .count();
+    wait_for_syncs(&capture_path, before_up + 200, Duration::from_secs(60));
+    // Safe state by default: the controller waits pre-operational for an NMT start.
+    cansend("000#0101");
+    let started = read_capture(&capture_path)
+        .iter()
+        .filter(|(_, f)| f.id() == 0x080)
+        .count();
+    wait_for_syncs(&capture_path, started + 200, Duration::from_secs(60));
+    interrupt(&mut daemon);
+    let status = daemon.0.wait().expect("actuatord ends");
+    assert!(status.success(), "actuatord exit status {status}");
+    interrupt(&mut sim);
+    let sim_status = sim.0.wait().expect("sim ends");
+    assert!(sim_status.success(), "sim exit status {sim_status}");
+    interrupt(&mut candump);
+    let _ = candump.0.wait();
+
+    let cap = Capture {
+        frames: read_capture(&capture_path),
+    };
+    // The outage is the one gap in the SYNCs longer than a few periods.
+    let syncs = cap.syncs();
+    let gap = syncs
+        .windows(2)
+        .enumerate()
+        .max_by(|a, b| (a.1[1] - a.1[0]).total_cmp(&(b.1[1] - b.1[0])))
+        .map(|(i, w)| (i, w[0], w[1]))
+        .expect("SYNCs");
+    let (gap_index, down_t, back_t) = gap;
+    eprintln!(
+        "vcan: outage {:.3} s between SYNC #{gap_index} and the next; {} SYNCs before, {} after",
+        back_t - down_t,
+        gap_index + 1,
+        syncs.len() - gap_index - 1
+    );
+    assert!(gap_index >= 300, "SYNCs before the outage: {gap_index}");
+    assert!(
+        syncs.len() - gap_index > 300,
+        "SYNC resumed after the outage: {} SYNCs",
+        syncs.len() - gap_index - 1
+    );
+    // The EMCY naming the outage goes out in the first cycle back: before the second SYNC.
+    let next_sync_t = syncs[gap_index + 2];
+    let emcy: Vec<(f64, Emcy)> = cap
+        .with_id(0x081)
+        .map(|(t, f)| (*t, Emcy::decode(f).expect("EMCY decodes")))
+        .filter(|(_, e)| e.axis_node_id == 0)
+        .collect();
+    assert_eq!(emcy.len(), 1, "one bus EMCY: {emcy:?}");
+    assert_eq!(
+        emcy[0].1.error_code,
+        actuatord::bus::BusFault::InterfaceDown.emcy_code(),
+        "the EMCY names the interface going down"
+    );
+    assert!(
+        emcy[0].0 >= back_t && emcy[0].0 < next_sync_t,
+        "EMCY at {} in the first cycle back ({back_t}..{next_sync_t})",
+        emcy[0].0
+    );
+    // Sensor frames answer the SYNCs again, and commands come back after the NMT start.
+    let sensors_after = cap.with_id(0x190).filter(|(t, _)| *t > back_t).count();
+    assert!(
+        sensors_after >= 300,
+        "{sensors_after} sensor frames after the outage"
+    );
+    let start_t = cap
+        .with_id(0x000)
+        .map(|(t, _)| *t)
+        .last()
+        .expect("NMT start captured");
+    let commands_between = cap
+        .with_id(0x210)
+        .filter(|(t, _)| *t > back_t && *t < start_t)
+        .filter(|(_, f)| {
+            actuatord::canopen::CommandPdo::decode(f).is_ok_and(|c| c.voltage_v != 0.0)
+        })
+        .count();
+    assert_eq!(
+        commands_between, 0,
+        "only the safe command until the NMT start"
+    );
+    let commands_after = cap.with_id(0x210).filter(|(t, _)| *t > start_t).count();
+    assert!(
+        commands_after >= 100,
+        "{commands_after} commands after the NMT start"
+    );
+    let status = cap
+        .with_id(0x381)
+        .map(|(_, f)| LoopStatusPdo::decode(f).expect("loop_status decodes"))
+        .last()
+        .expect("loop_status frames");
+    assert_eq!(status.bus_faults, 1, "{status:?}");
+
+    // The recording holds the whole run: cycles on both sides, the fault and the return.
+    let cycles = actuatord::daemon::recorder::read_cycles(&recording).expect("recording reads");
+    let period_s = PERIOD;
+    let step = cycles
+        .windows(2)
+        .map(|w| w[1].t_s - w[0].t_s)
+        .fold(0.0, f64::max);
+    assert!(
+        step > 100.0 * period_s,
+        "the outage shows as a gap in the cycle records"
+    );
+    assert!(
+        cycles.len() >= syncs.len() * 98 / 100,
+        "{} cycle records for {} SYNCs",
+        cycles.len(),
+        syncs.len()
+    );
+    let events = recorded_events(&recording);
+    let fault = events
+        .iter()
+        .find(|(k, _)| k == "bus_fault")
+        .expect("bus_fault recorded");
+    assert!(fault.1.contains("interface_down"), "{}", fault.1);
+    let restored = events
+        .iter()
+        .find(|(k, _)| k == "bus_restored")
+        .expect("bus_restored recorded");
+    assert!(restored.1.contains("interface_down"), "{}", restored.1);
+}
+
+#[test]
+#[ignore = "needs vcan0, candump and cansend: run through scripts/vcan-run (scripts/test does)"]
+fn a_restarted_daemon_records_a_new_file_and_both_read_back() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let records = dir.path().join("recordings");
+    let mut sim = sim_node(&[]);
+    let mut runs = Vec::new();
+    for run in 0..2 {
+        let capture_path = dir.path().join(format!("capture{run}.log"));
+        let mut candump = candump_to(&capture_path);
+        let mut daemon = Proc(
+            Command::new(env!("CARGO_BIN_EXE_actuatord"))
+                .arg("--config")
+                .arg(root("config/solenoid.toml"))
+                .args(["--iface", &iface(), "--record-dir"])
+                .arg(&records)
+                .args(["--record-keep", "5"])
+                .spawn()
+                .expect("actuatord starts"),
+        );
+        wait_for_syncs(&capture_path, 200, Duration::from_secs(60));
+        if run == 0 {
+            // The first run ends as an incident would: killed, no clean shutdown.
+            // SAFETY: plain kill(2) on a child we own.
+            unsafe { libc::kill(daemon.0.id() as libc::pid_t, libc::SIGKILL) };
+            let _ = daemon.0.wait();
+        } else {
+            interrupt(&mut daemon);
+            let status = daemon.0.wait().expect("actuatord ends");
+            assert!(status.success(), "actuatord exit status {status}");
+        }
+        interrupt(&mut candump);
+        let _ = candump.0.wait();
+        runs.push(
+            read_capture(&capture_path)
+                .iter()
+                .filter(|(_, f)| f.id() == 0x080)
+                .count(),
+        );
+    }
+    interrupt(&mut sim);
+    let _ = sim.0.wait();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&records)
+        .expect("record dir")
+        .map(|e| e.expect("entry").path())
+        .collect();
+    files.sort();
+    assert_eq!(files.len(), 2, "one recording per run: {files:?}");
+    let names: Vec<String> = files
+        .iter()
+        .map(|p| p.file_name().expect("name").to_string_lossy().to_string())
+        .collect();
+    assert!(names[0].starts_with("run-000001-"), "{names:?}");
+    assert!(names[1].starts_with("run-000002-"), "{names:?}");
+    // The killed run reads to its last finished chunk (64 KiB, well under a second of it);
+    // the clean one whole.
+    let out = Command::new("python3")
+        .args(["-c", STREAM_READER])
+        .arg(&files[0])
+        .output()
+        .expect("python3 runs");
+    let killed: usize = String::from_utf8_lossy(&out.stdout)
+        .trim()
+        .parse()
+        .unwrap_or(0);
+    let clean = actuatord::daemon::recorder::read_cycles(&files[1]).expect("second run reads");
+    eprintln!(
+        "vcan: killed run {killed} cycle records readable for {} SYNCs captured; clean run {} for {}",
+        runs[0],
+        clean.len(),
+        runs[1]
+    );
+    assert!(killed >= 100, "{killed} records readable of the killed run");
+    assert!(
+        clean.len() >= runs[1] * 98 / 100,
+        "{} records of the clean run for {} SYNCs",
+        clean.len(),
+        runs[1]
+    );
+}
