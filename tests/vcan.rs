@@ -144,21 +144,17 @@ fn daemon_and_simulated_node_close_the_loop_on_vcan() {
     let cut = text
         .find("[[axis.setpoints]]\nat_s = 3.0")
         .expect("schedule entry at 3 s");
-    // The user-mode kernel of the test machine now and then holds the simulated node back for
-    // 20 ms right after start-up (sensor frames missed in a burst, the daemon's cycle on
-    // time): 0.1 s without sensor frames still latches sensor_timeout, as the shipped 20 ms
-    // does on a real bus, without failing a run on the guest's hiccup.
-    let text = text[..cut].replace("sensor_timeout_s = 0.02\n", "sensor_timeout_s = 0.1\n");
+    // The shipped limits, the 20 ms sensor timeout among them: what runs on a vehicle runs here.
+    let text = &text[..cut];
     assert!(
-        text.contains("sensor_timeout_s = 0.1\n"),
-        "sensor_timeout_s in the config"
+        text.contains("sensor_timeout_s = 0.02\n"),
+        "the shipped sensor timeout"
     );
     std::fs::write(&config, text).expect("write config");
     let capture_path = dir.path().join("capture.log");
     let recording = dir.path().join("run.mcap");
 
     let mut candump = candump_to(&capture_path);
-    std::thread::sleep(Duration::from_millis(300));
     let mut sim = Proc(
         realtime(SIM_PRIORITY, env!("CARGO_BIN_EXE_actuator"))
             .args(["sim", "--iface", &iface(), "--plant"])
@@ -168,7 +164,7 @@ fn daemon_and_simulated_node_close_the_loop_on_vcan() {
             .spawn()
             .expect("actuator sim starts"),
     );
-    std::thread::sleep(Duration::from_millis(300));
+    wait_for_heartbeat(&capture_path, 0x710);
     let mut daemon = Proc(
         Command::new(env!("CARGO_BIN_EXE_actuatord"))
             .arg("--config")
@@ -184,17 +180,17 @@ fn daemon_and_simulated_node_close_the_loop_on_vcan() {
             .spawn()
             .expect("actuatord starts"),
     );
-    // Garbage while the loop runs: a short sensor frame, a short setpoint, an unknown id.
-    std::thread::sleep(Duration::from_millis(1500));
+    // Garbage while the loop runs (after 1.5 s of cycles, counted in SYNCs): a short sensor
+    // frame, a short setpoint, an unknown id.
+    wait_for_syncs(&capture_path, 600, Duration::from_secs(60));
     for g in ["190#0102", "201#FF", "5FF#0011223344556677"] {
         cansend(g);
     }
-    // A setpoint frame at about 3 s: 15 mm = 150000 x 0.1 µm, for axis 16.
-    std::thread::sleep(Duration::from_millis(1500));
+    // A setpoint frame after 3 s of cycles: 15 mm = 150000 x 0.1 µm, for axis 16.
+    wait_for_syncs(&capture_path, 1200, Duration::from_secs(60));
     cansend(&format!("201#{}10", hex_le(150_000)));
     let status = daemon.0.wait().expect("actuatord ends");
     assert!(status.success(), "actuatord exit status {status}");
-    std::thread::sleep(Duration::from_millis(200));
     interrupt(&mut sim);
     let sim_status = sim.0.wait().expect("sim ends");
     assert!(sim_status.success(), "sim exit status {sim_status}");
@@ -213,34 +209,21 @@ fn daemon_and_simulated_node_close_the_loop_on_vcan() {
     let t0 = syncs[0];
     let span = syncs[syncs.len() - 1] - t0;
 
-    // Rates: one SYNC per period (overrun cycles are skipped, not bunched), one sensor and one
-    // command frame per SYNC, heartbeats of both nodes at their 100 ms period.
+    // Counts against SYNCs: one sensor and one command frame per SYNC, the controller's
+    // heartbeat every 40th cycle (100 ms at 2.5 ms). How many SYNCs the guest managed in the
+    // run's time is a figure of `actuator bench rt`, printed here and not judged.
     let expected_syncs = RUN_S / PERIOD;
-    let rate = |n: usize| n as f64 / span;
-    let sync_ratio = syncs.len() as f64 / expected_syncs;
     let sensors = cap.with_id(0x190).count();
     let commands = cap.with_id(0x210).count();
-    // Heartbeats over their own span: the nodes start before the first SYNC and end after it.
-    let own_rate = |id: u32| {
-        let t: Vec<f64> = cap.with_id(id).map(|(t, _)| *t).collect();
-        (t.len() as f64 - 1.0) / (t[t.len() - 1] - t[0])
-    };
+    let operational_heartbeats = cap
+        .with_id(0x701)
+        .filter(|(_, f)| f.data() == [0x05])
+        .count();
     eprintln!(
-        "vcan: {} SYNC over {span:.3} s = {:.1}/s ({:.1} % of the configured 400/s); sensor {:.1}/s, command {:.1}/s, heartbeat controller {:.2}/s, actuator {:.2}/s",
+        "vcan: {} SYNC over {span:.3} s ({:.1} % of the configured 400/s); {sensors} sensor, {commands} command frames, {operational_heartbeats} controller heartbeats, {} actuator heartbeats",
         syncs.len(),
-        rate(syncs.len()),
-        sync_ratio * 100.0,
-        rate(sensors),
-        rate(commands),
-        own_rate(0x701),
-        own_rate(0x710),
-    );
-    // The rate itself is measured by `actuator bench rt`; the user-mode kernel runs slower
-    // than a real one on a busy host, so this only catches a loop that lost its period.
-    assert!(
-        sync_ratio > 0.5,
-        "SYNC count {} of {expected_syncs}",
-        syncs.len()
+        syncs.len() as f64 / expected_syncs * 100.0,
+        cap.with_id(0x710).count(),
     );
     assert!(
         sensors as f64 >= 0.98 * syncs.len() as f64,
@@ -252,10 +235,19 @@ fn daemon_and_simulated_node_close_the_loop_on_vcan() {
         "{commands} commands for {} SYNCs",
         syncs.len()
     );
-    for id in [0x701, 0x710] {
-        let r = own_rate(id);
-        assert!((r - 10.0).abs() < 1.0, "heartbeat 0x{id:03X} at {r}/s");
-    }
+    let per_heartbeat = syncs.len() as f64 / 40.0;
+    assert!(
+        (operational_heartbeats as f64 - per_heartbeat).abs() <= 2.0,
+        "{operational_heartbeats} controller heartbeats for {} SYNCs (one per 40)",
+        syncs.len()
+    );
+    // The actuator's heartbeat kept coming: its supervision (0.3 s) never fired.
+    let lost = cap
+        .with_id(0x081)
+        .filter_map(|(_, f)| Emcy::decode(f).ok())
+        .filter(|e| e.error_code == 0x8130 || e.error_code == 0x8100)
+        .count();
+    assert_eq!(lost, 0, "no heartbeat_lost or sensor_timeout EMCY");
 
     // Setpoints: mean position over the 200 ms before each change, against the setpoint.
     let sensor: Vec<(f64, f64)> = cap
@@ -322,11 +314,15 @@ fn daemon_and_simulated_node_close_the_loop_on_vcan() {
         .find(|(_, s)| s.state == FaultState::Fault)
         .expect("fault_state frame with a fault");
     assert!(state.1.flags.contains(FaultKind::SupplyVoltage));
-    assert!(
-        (state.0 - emcy.0).abs() < PERIOD,
-        "fault_state at {} vs EMCY at {}",
-        state.0,
-        emcy.0
+    // Both go out in the same cycle: no SYNC between them.
+    let between = syncs
+        .iter()
+        .filter(|t| **t > emcy.0.min(state.0) && **t < emcy.0.max(state.0))
+        .count();
+    assert_eq!(
+        between, 0,
+        "fault_state at {} and EMCY at {} in different cycles",
+        state.0, emcy.0
     );
 
     // The garbage was counted, not fatal: the loop went on and says so in loop_status.
@@ -937,47 +933,77 @@ impl WaitTaken for Child {
 #[ignore = "needs vcan0, candump and cansend: run through scripts/vcan-run (scripts/test does)"]
 fn a_cangen_flood_does_not_break_the_cycle() {
     let mut sim = sim_node(&[]);
-    std::thread::sleep(Duration::from_millis(300));
-    let start = std::time::Instant::now();
     let mut daemon = Proc(
         Command::new(env!("CARGO_BIN_EXE_actuatord"))
             .arg("--config")
             .arg(root("config/solenoid.toml"))
-            .args(["--iface", &iface(), "--duration-s", "60"])
+            .args(["--iface", &iface(), "--duration-s", "600"])
             .spawn()
             .expect("actuatord starts"),
     );
-    std::thread::sleep(Duration::from_millis(1000));
-    // Unrelated frames as fast as cangen can send them (no gap), a bounded number. How long
-    // that takes depends on the machine (1.8 s on a host kernel, 7 s in the user-mode one):
-    // the daemon runs until it is stopped after the reads below.
-    let flood_start = std::time::Instant::now();
-    let status = Command::new("cangen")
-        .args([&iface(), "-g", "0", "-I", "5FF", "-L", "8", "-n", "50000"])
-        .status()
-        .expect("cangen (can-utils) runs");
-    let flood_s = flood_start.elapsed().as_secs_f64();
-    assert!(status.success());
     let read = |object: &str| -> u64 {
         let (ok, out, err) = sdo(&["read", object]);
         assert!(ok, "{object}: {err}");
         out.parse().expect("a count")
     };
-    let cycles = read("loop_statistics.cycles");
-    let elapsed = start.elapsed().as_secs_f64();
+    // The loop runs (its statistics are published every status period; until the daemon is
+    // up, its SDO server does not answer).
+    let start = std::time::Instant::now();
+    while !sdo(&["read", "loop_statistics.cycles"])
+        .1
+        .parse::<u64>()
+        .is_ok_and(|c| c >= 200)
+    {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "the loop does not run"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let (cycles_a, missed_a) = (
+        read("loop_statistics.cycles"),
+        read("axis0_fault.sensor_missed"),
+    );
+    // Unrelated 8-byte frames every 0.25 ms: what a 500 kbit/s bus (the configuration's) carries
+    // when saturated, about 4000 frames/s on top of our own. vcan has no bit rate: an unpaced
+    // flood would be as fast as the guest can copy frames, a bus no vehicle has.
+    let flood_start = std::time::Instant::now();
+    let status = Command::new("cangen")
+        .args([
+            &iface(),
+            "-g",
+            "0.25",
+            "-I",
+            "5FF",
+            "-L",
+            "8",
+            "-n",
+            "10000",
+        ])
+        .status()
+        .expect("cangen (can-utils) runs");
+    let flood_s = flood_start.elapsed().as_secs_f64();
+    assert!(status.success());
+    let (cycles_b, missed_b) = (
+        read("loop_statistics.cycles"),
+        read("axis0_fault.sensor_missed"),
+    );
     let overruns = read("loop_statistics.overruns");
     let unknown = read("loop_statistics.frames_unknown");
+    let bus_faults = read("loop_statistics.bus_faults");
+    let (cycles, missed) = (cycles_b - cycles_a, missed_b - missed_a);
     eprintln!(
-        "vcan: cangen flood of 50000 frames in {flood_s:.2} s ({:.0} frames/s): {cycles} cycles in {elapsed:.2} s, {overruns} overruns, {unknown} unknown frames counted",
-        50000.0 / flood_s
+        "vcan: cangen flood of 10000 frames in {flood_s:.2} s ({:.0} frames/s): {cycles} cycles meanwhile, {missed} without their sensor frame, {overruns} overruns in all, {unknown} unknown frames counted",
+        10000.0 / flood_s
     );
-    // The statistics are published every status period (50 ms) and the daemon started a
-    // little after `start`: allow for both, then the loop must have kept its rate.
-    assert!(
-        cycles as f64 >= 0.85 * (elapsed - 0.5) / 0.0025,
-        "{cycles} cycles in {elapsed} s"
-    );
-    assert!(unknown > 1000, "the flood reached the daemon: {unknown}");
+    // Through the flood the cycle went on, read every frame (none lost in the socket's receive
+    // buffer), and no supervision fired: a sensor frame late now and then (the guest's one CPU
+    // also runs cangen's 4000 wake-ups a second) is counted and reported, not a fault; eight
+    // in a row would be (sensor_timeout, 20 ms).
+    assert!(cycles > 100, "{cycles} cycles during the flood");
+    assert_eq!(unknown, 10_000, "every flood frame read and counted");
+    assert_eq!(read("axis0_fault.faults_raised"), 0, "no fault raised");
+    assert_eq!(bus_faults, 0, "a busy bus is no bus fault");
     interrupt(&mut daemon);
     let status = daemon.0.wait().expect("actuatord ends");
     assert!(status.success(), "{status}");
@@ -1046,10 +1072,9 @@ fn a_second_bus_gets_its_own_cycle_thread() {
     let cut = text.find("[[axis.setpoints]]").expect("a schedule");
     let first = dir.path().join("bus0.toml");
     let second = dir.path().join("bus1.toml");
-    // Two SCHED_FIFO cycles share the user-mode kernel's one CPU with both simulated nodes:
-    // give the nodes' answers more slack than the shipped 20 ms, this test is about threads.
-    let text = text[..cut].replace("sensor_timeout_s = 0.02", "sensor_timeout_s = 0.5");
-    std::fs::write(&first, &text).expect("write");
+    // The shipped limits, the 20 ms sensor timeout among them.
+    let text = &text[..cut];
+    std::fs::write(&first, text).expect("write");
     std::fs::write(
         &second,
         text.replace("iface = \"vcan0\"", "iface = \"vcan1\"")
@@ -1105,9 +1130,14 @@ fn a_second_bus_gets_its_own_cycle_thread() {
             .collect();
         let tail = &last[last.len().saturating_sub(100)..];
         let mean = tail.iter().sum::<f64>() / tail.len().max(1) as f64;
-        eprintln!("vcan: {iface}: {syncs} SYNC in 2 s, position {mean:.5} m for {target}");
-        // 800 at the configured rate; only a loop that lost its period falls below half.
-        assert!(syncs > 400, "{iface}: {syncs} SYNC");
+        let sensors = last.len();
+        eprintln!("vcan: {iface}: {syncs} SYNC in 2 s ({sensors} sensor frames), position {mean:.5} m for {target}");
+        // Each bus' own cycle: every SYNC answered (the rate is `actuator bench rt`'s).
+        assert!(syncs > 100, "{iface}: {syncs} SYNC");
+        assert!(
+            sensors as f64 >= 0.98 * syncs as f64,
+            "{iface}: {sensors} sensor frames for {syncs} SYNC"
+        );
         let faults: Vec<&str> = log.lines().filter(|l| l.contains("raised")).collect();
         assert!((mean - target).abs() < 25e-6, "{iface}: {mean}; {faults:?}");
         assert!(log.contains(&format!("{iface}: bus load")), "{log}");
@@ -1116,9 +1146,16 @@ fn a_second_bus_gets_its_own_cycle_thread() {
         let file = dir.path().join(format!("run-{iface}.mcap"));
         let cycles =
             actuatord::daemon::recorder::read_cycles(&file).expect("one recording per bus");
-        // As for the SYNC above: 800 at the configured rate, two real-time cycles share the
-        // test machine's one guest CPU; only a loop that lost its period falls below half.
-        assert!(cycles.len() > 400, "{iface}: {} records", cycles.len());
+        // One record per cycle of that bus, and so per SYNC on it.
+        let syncs = records
+            .iter()
+            .filter(|r| r.iface == iface && r.frame.id() == 0x080)
+            .count();
+        assert!(
+            cycles.len() as f64 >= 0.98 * syncs as f64 && cycles.len() <= syncs + 1,
+            "{iface}: {} records for {syncs} SYNC",
+            cycles.len()
+        );
     }
 }
 
@@ -1209,6 +1246,19 @@ fn learned_state_survives_a_restart_and_a_bad_state_file_is_set_aside() {
     );
     interrupt(&mut sim);
     let _ = sim.0.wait();
+}
+
+/// Wait until the capture holds a heartbeat with COB-ID `id`: that node is up and on the bus.
+fn wait_for_heartbeat(capture: &Path, id: u32) {
+    let start = std::time::Instant::now();
+    let needle = format!(" {id:03X}#");
+    while !std::fs::read_to_string(capture).is_ok_and(|t| t.contains(&needle)) {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "no heartbeat 0x{id:03X} captured"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
 }
 
 /// Wait until the capture holds `n` SYNC frames: the loop has run that many cycles, whatever

@@ -274,12 +274,17 @@ fn run(args: Args) -> anyhow::Result<()> {
                 "--heartbeat-period-s must be > 0, got {heartbeat_period_s}"
             );
             let mut bus = SocketCanBus::open(&iface)?;
+            // An actuator's firmware runs from RAM: its answer to a SYNC must not wait for a
+            // page of code to be read in (where the limit allows; without it, it runs as is).
+            let locked = actuatord::daemon::rt::lock_memory().is_ok();
             eprintln!(
-                "actuator sim: {} node {node_id} on {iface}, {} ms per SYNC",
+                "actuator sim: {} node {node_id} on {iface}, {} ms per SYNC{}",
                 model.family().name(),
-                period_s * 1e3
+                period_s * 1e3,
+                if locked { "" } else { " (memory not locked)" }
             );
             let mut node = SimNode::new(node_id, model, period_s, faults);
+            bus.accept_only(&node.accepted_ids())?;
             let stop = Arc::new(AtomicBool::new(false));
             watch_signals(stop.clone())?;
             run_sim_node(

@@ -14,6 +14,8 @@ pub const RECEIVE_BUFFER_BYTES: usize = 1 << 20;
 pub struct SocketCanBus {
     iface: String,
     socket: CanSocket,
+    /// Standard identifiers let through by the kernel (all when empty); kept for a reopen.
+    accept: Vec<u32>,
 }
 
 impl SocketCanBus {
@@ -23,7 +25,25 @@ impl SocketCanBus {
         Ok(Self {
             iface: iface.to_string(),
             socket,
+            accept: Vec::new(),
         })
+    }
+
+    /// Let only these standard identifiers through (and error frames), as a node's acceptance
+    /// filter does: the kernel drops the rest before they wake the reader.
+    pub fn accept_only(&mut self, ids: &[u32]) -> Result<(), BusError> {
+        self.accept = ids.to_vec();
+        self.apply_filters()
+    }
+
+    fn apply_filters(&self) -> Result<(), BusError> {
+        if self.accept.is_empty() {
+            return Ok(());
+        }
+        // Match the id, standard frames only (CAN_EFF_FLAG in the mask, clear in the id).
+        let mask = libc::CAN_SFF_MASK | libc::CAN_EFF_FLAG;
+        let filters: Vec<(u32, u32)> = self.accept.iter().map(|id| (*id, mask)).collect();
+        self.socket.set_filters(&filters).map_err(|e| self.io(e))
     }
 
     fn open_socket(iface: &str) -> Result<CanSocket, BusError> {
@@ -163,6 +183,6 @@ impl Bus for SocketCanBus {
 
     fn reopen(&mut self) -> Result<(), BusError> {
         self.socket = Self::open_socket(&self.iface)?;
-        Ok(())
+        self.apply_filters()
     }
 }

@@ -95,6 +95,16 @@ impl SimNode {
         self.command = 0.0;
     }
 
+    /// The identifiers this node takes from the bus (SYNC, NMT, its command): what a real
+    /// node's CAN controller lets through its acceptance filter.
+    pub fn accepted_ids(&self) -> [u32; 3] {
+        [
+            messages::SYNC.cob_id(0),
+            messages::NMT.cob_id(0),
+            messages::COMMAND.cob_id(self.node_id),
+        ]
+    }
+
     pub fn heartbeat(&self) -> Frame {
         encode_heartbeat(self.node_id, self.state)
     }
