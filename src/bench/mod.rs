@@ -6,9 +6,12 @@
 //! - [`fault_table`]: the fault-symptom table of the parameter diagnosis, derived from
 //!   simulations of the solenoid with each fault (`actuator bench fault-table`).
 //! - [`rt`]: how well the real-time cycle keeps time, against a naive baseline.
+//! - [`soak`]: the daemon and a simulated node as processes for minutes of floods, outages,
+//!   reloads, SDO writes and stalls: crashes, memory, periods, faults and records.
 
 pub mod fault_table;
 pub mod paper;
 pub mod rt;
+pub mod soak;
 
 pub use paper::{run_paper_bench, PaperRow, PaperTable};

@@ -171,6 +171,28 @@ enum BenchCommand {
         #[arg(long)]
         check: bool,
     },
+    /// Minutes of the daemon against the simulated node (processes on a SocketCAN interface)
+    /// with floods, bus outages, SIGHUPs, SDO writes, node stalls and fault resets; reports
+    /// crashes, memory, periods held, faults and records. Needs CAP_NET_ADMIN for the outages.
+    Soak {
+        #[arg(long, default_value_t = 10.0)]
+        minutes: f64,
+        #[arg(long, default_value = "vcan0")]
+        iface: String,
+        #[arg(long, default_value = "config/solenoid.toml")]
+        config: PathBuf,
+        #[arg(long, default_value = "config/plants/solenoid.toml")]
+        plant: PathBuf,
+        /// The daemon's binary (default: actuatord beside this program).
+        #[arg(long)]
+        daemon: Option<PathBuf>,
+        /// Keep the recordings and the daemon's log here (default: a temporary directory).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
     /// How the cycle keeps time: lateness histogram, deadline misses, latencies, compute per
     /// stage, against a naive tokio-interval loop doing the same work in the same run.
     Rt {
@@ -422,6 +444,38 @@ fn run(args: Args) -> anyhow::Result<()> {
             } else {
                 println!("{report}");
             }
+            Ok(())
+        }
+        Command::Bench {
+            what:
+                BenchCommand::Soak {
+                    minutes,
+                    iface,
+                    config,
+                    plant,
+                    daemon,
+                    out,
+                    json,
+                },
+        } => {
+            let report = actuatord::bench::soak::run(&actuatord::bench::soak::SoakOptions {
+                config,
+                plant,
+                iface,
+                minutes,
+                daemon,
+                out,
+            })?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&report)?);
+            } else {
+                println!("{report}");
+            }
+            anyhow::ensure!(
+                report.crashes.is_empty(),
+                "the soak saw a crash: {}",
+                report.crashes.join("; ")
+            );
             Ok(())
         }
         Command::Dbc {
