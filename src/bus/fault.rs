@@ -76,13 +76,11 @@ impl BusFault {
 
     /// True when the bus cannot carry frames until it comes back: the cycle stops commanding.
     pub fn is_loss(self) -> bool {
+        // A full transmit queue loses the frame, not the bus: the next period tries again, and
+        // a bus that really stopped shows as bus-off or a downed interface.
         matches!(
             self,
-            BusFault::InterfaceDown
-                | BusFault::InterfaceGone
-                | BusFault::BusOff
-                | BusFault::TransmitQueueFull
-                | BusFault::Io(_)
+            BusFault::InterfaceDown | BusFault::InterfaceGone | BusFault::BusOff | BusFault::Io(_)
         )
     }
 
@@ -192,6 +190,7 @@ mod tests {
         );
         assert_eq!(BusFault::from_error_frame(&frame(0x002, 0)), None);
         assert!(BusFault::BusOff.is_loss() && !BusFault::ErrorPassive.is_loss());
+        assert!(!BusFault::TransmitQueueFull.is_loss());
         let codes: std::collections::BTreeSet<u16> = [
             BusFault::InterfaceDown,
             BusFault::InterfaceGone,
