@@ -1254,7 +1254,8 @@ fn learned_state_survives_a_restart_and_a_bad_state_file_is_set_aside() {
     std::thread::sleep(Duration::from_millis(300));
 
     // A first run learns and leaves the state file behind, whole.
-    let log = run("3", None);
+    let first_capture = dir.path().join("first.log");
+    let log = run("3", Some(&first_capture));
     assert!(log.contains("no state file yet"), "{log}");
     let kept = state::load(&file).expect("readable").expect("written");
     let axis = &kept.axis[0];
@@ -1263,7 +1264,28 @@ fn learned_state_survives_a_restart_and_a_bad_state_file_is_set_aside() {
         ("solenoid", 16)
     );
     let pos = axis.friction_compensation_pos.expect("friction kept");
-    assert!((0.0..=0.4).contains(&pos), "{pos}");
+    // What is kept is what the axis learned: the value its last tuned_parameters frame carried
+    // (1 mV frames), moved away from the unadapted start its first frame carried.
+    let published: Vec<f64> = read_capture(&first_capture)
+        .iter()
+        .filter(|(_, f)| f.id() == TUNED_PARAMETERS.cob_id(1))
+        .filter_map(|(_, f)| TunedParametersPdo::decode(f).ok())
+        .filter(|t| t.axis_node_id == 16)
+        .map(|t| t.friction_compensation_pos_v)
+        .collect();
+    let (start, end) = (
+        *published.first().expect("tuned_parameters sent"),
+        *published.last().expect("tuned_parameters sent"),
+    );
+    eprintln!("vcan: U_comp+ kept {pos:.4} V; on the bus {start:.3} V first, {end:.3} V last");
+    assert!(
+        (pos - end).abs() < 0.002,
+        "kept {pos}, last on the bus {end}"
+    );
+    assert!(
+        (pos - start).abs() > 0.002,
+        "kept {pos}, the unadapted start {start}"
+    );
     assert!(!dir.path().join("learned.toml.tmp").exists());
 
     // The next start begins from the stored values: the first tuned_parameters frame has them.
