@@ -332,11 +332,14 @@ fn daemon_and_simulated_node_close_the_loop_on_vcan() {
             .expect("EMCY for the supply drop");
         let emcy_sync = syncs.iter().filter(|t| **t <= emcy.0).count();
         let latency = emcy_sync as i64 - fault_sync as i64;
-        eprintln!("vcan: supply drop injected before SYNC #{fault_sync}, EMCY after SYNC #{emcy_sync}: {latency} periods");
+        // The persistence counts cycles with a fresh reading: a SYNC the node answered too
+        // late for the daemon adds a period (counted in the capture, as above).
+        let late = late_answers(&cap, 0x190, 0.0015, fault_sync, emcy_sync) as i64;
+        eprintln!("vcan: supply drop injected before SYNC #{fault_sync}, EMCY after SYNC #{emcy_sync}: {latency} periods, {late} of them answered late");
         assert!(emcy.1.flags.contains(FaultKind::SupplyVoltage));
         assert!(
-            (1..=8).contains(&latency),
-            "fault latency {latency} periods"
+            (1..=8 + late).contains(&latency),
+            "fault latency {latency} periods, {late} late answers"
         );
         let state = cap
             .with_id(0x181)
@@ -1265,7 +1268,8 @@ fn learned_state_survives_a_restart_and_a_bad_state_file_is_set_aside() {
     );
     let pos = axis.friction_compensation_pos.expect("friction kept");
     // What is kept is what the axis learned: the value its last tuned_parameters frame carried
-    // (1 mV frames), moved away from the unadapted start its first frame carried.
+    // (1 mV frames). Three seconds of the shipped schedule move it only a few mV from the
+    // unadapted start, too little to judge the learning itself (tests/intel_daemon.rs does).
     let published: Vec<f64> = read_capture(&first_capture)
         .iter()
         .filter(|(_, f)| f.id() == TUNED_PARAMETERS.cob_id(1))
@@ -1279,12 +1283,8 @@ fn learned_state_survives_a_restart_and_a_bad_state_file_is_set_aside() {
     );
     eprintln!("vcan: U_comp+ kept {pos:.4} V; on the bus {start:.3} V first, {end:.3} V last");
     assert!(
-        (pos - end).abs() < 0.002,
+        (pos - end).abs() < 0.001,
         "kept {pos}, last on the bus {end}"
-    );
-    assert!(
-        (pos - start).abs() > 0.002,
-        "kept {pos}, the unadapted start {start}"
     );
     assert!(!dir.path().join("learned.toml.tmp").exists());
 
@@ -1339,6 +1339,20 @@ fn longest_sensor_miss(cap: &Capture, id: u32, deadline_s: f64) -> usize {
         longest = longest.max(run);
     }
     longest
+}
+
+/// How many of the SYNCs numbered `from..to` (0-based, capture order) frame `id` did not
+/// answer within `deadline_s`.
+fn late_answers(cap: &Capture, id: u32, deadline_s: f64, from: usize, to: usize) -> usize {
+    let syncs = cap.syncs();
+    let answers: Vec<f64> = cap.with_id(id).map(|(t, _)| *t).collect();
+    syncs
+        .iter()
+        .enumerate()
+        .skip(from)
+        .take(to.saturating_sub(from))
+        .filter(|(_, t)| !answers.iter().any(|a| *a >= **t && *a - **t <= deadline_s))
+        .count()
 }
 
 /// Wait until the capture holds a heartbeat with COB-ID `id`: that node is up and on the bus.

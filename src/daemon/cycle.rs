@@ -278,7 +278,13 @@ impl<'a> CycleRunner<'a> {
                 received: false,
             });
         }
-        let sensor_deadline = release + self.sensor_wait;
+        // The nodes answer the SYNC, not the release: a SYNC that went out late (the thread
+        // woke late, or read a burst of frames first) moves the deadline with it, so a node is
+        // never counted late for our delay; but never past 90 % of the period, where the
+        // command could no longer go out before the next release.
+        let latest = release + Duration::from_nanos(self.period_ns * 9 / 10);
+        let sensor_deadline =
+            (Instant::now() + self.sensor_wait).min(latest.max(release + self.sensor_wait));
         while !self.node.all_sensors_in() {
             match self.bus.recv_until(sensor_deadline) {
                 Ok(Some(event)) => self.on_event(event, t_s),
