@@ -59,7 +59,8 @@ impl ObjectList {
             0x1000 | 0x1001 | 0x1018 => Some(Self::Mandatory),
             0x1002..=0x1FFF => Some(Self::Optional),
             0x2000..=0x5FFF => Some(Self::Manufacturer),
-            // Standardised profile area (6000h..9FFFh) and others: none used here.
+            // The standardised device profile area (CiA 402, CiA 401 nodes).
+            0x6000..=0x9FFF => Some(Self::Optional),
             _ => None,
         }
     }

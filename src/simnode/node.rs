@@ -1,6 +1,7 @@
 //! A simulated actuator node, sans-I/O: on every SYNC it advances its plant by one period with
 //! the last command held and answers with its sensor frames, as a real node's firmware would.
 
+use super::profile::ProfileNode;
 use crate::bus::Frame;
 use crate::canopen::{
     decode_sync, encode_heartbeat, messages, CommandPdo, NmtCommand, NmtState, SensorPdo,
@@ -41,6 +42,8 @@ pub struct SimNode {
     next_fault: usize,
     last_sync_counter: Option<u8>,
     counters: SimCounters,
+    /// A standard profile instead of the actuatord frames.
+    profile: Option<Box<ProfileNode>>,
 }
 
 impl SimNode {
@@ -62,7 +65,19 @@ impl SimNode {
             next_fault: 0,
             last_sync_counter: None,
             counters: SimCounters::default(),
+            profile: None,
         }
+    }
+
+    /// Speak a standard profile (CiA 402 drive, CiA 401 I/O module) instead of our frames.
+    pub fn with_profile(mut self, profile: ProfileNode) -> Self {
+        self.profile = Some(Box::new(profile));
+        self
+    }
+
+    /// The standard profile's side, when the node speaks one.
+    pub fn profile(&self) -> Option<&ProfileNode> {
+        self.profile.as_deref()
     }
 
     pub fn node_id(&self) -> u8 {
@@ -86,6 +101,9 @@ impl SimNode {
         send(&encode_heartbeat(self.node_id, NmtState::Initialising));
         self.state = NmtState::PreOperational;
         self.command = 0.0;
+        if let Some(p) = self.profile.as_mut() {
+            p.reset();
+        }
     }
 
     pub fn heartbeat(&self) -> Frame {
@@ -121,6 +139,11 @@ impl SimNode {
                 Ok(_) => {}
                 Err(_) => self.malformed(frame, event),
             }
+        } else if let Some(p) = self.profile.as_mut() {
+            if !p.handle(frame, self.state, send) {
+                return;
+            }
+            self.counters.commands += 1;
         } else if id == messages::COMMAND.cob_id(self.node_id) {
             match CommandPdo::decode(frame) {
                 // PDOs count only in operational (CiA 301).
@@ -165,6 +188,10 @@ impl SimNode {
                 plant_time_s: self.plant.time_s(),
                 sync_count: self.counters.syncs - 1,
             });
+        }
+        if let Some(p) = self.profile.as_mut() {
+            p.on_sync(self.plant.as_mut(), self.period_s, self.state, send);
+            return;
         }
         // Physical time passes whatever the NMT state; only the PDOs wait for operational.
         self.plant.step(self.command, self.period_s);
