@@ -24,6 +24,15 @@ pub enum Profile {
     Cia401,
 }
 
+impl std::fmt::Display for Profile {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Profile::Cia402 => "cia402",
+            Profile::Cia401 => "cia401",
+        })
+    }
+}
+
 impl FromStr for Profile {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
