@@ -62,6 +62,8 @@ struct Rig {
     k: u64,
     /// Frames the controller sent, with their cycle.
     sent: Vec<(u64, Frame)>,
+    /// Every frame on the bus after the start-up.
+    bus: Vec<Frame>,
     records: Vec<CycleRecord>,
 }
 
@@ -83,6 +85,7 @@ impl Rig {
             period_s: config.cycle.period_s,
             k: 0,
             sent: vec![],
+            bus: vec![],
             records: vec![],
         };
         let mut out = vec![];
@@ -95,8 +98,10 @@ impl Rig {
         let mut answers = Vec::new();
         for f in frames {
             self.sent.push((self.k, *f));
+            self.bus.push(*f);
             self.sim.handle(f, &mut |a| answers.push(*a), &mut |_| {});
         }
+        self.bus.extend(&answers);
         answers
     }
 
@@ -203,6 +208,17 @@ fn a_cia402_drive_in_cst_closes_the_loop_with_the_intelligent_functions_on() {
         .iter()
         .filter(|(_, f)| f.id() == 0x210)
         .all(|(_, f)| f.len() == 4));
+    // The configuration's DBC describes every frame on the bus, the drive's PDOs as mapped.
+    let text = actuatord::daemon::profile_dbc::render_config_dbc(&config).expect("dbc");
+    let dbc = can_dbc::Dbc::try_from(text.as_str()).expect("the DBC parses");
+    for f in &rig.bus {
+        let m = dbc
+            .messages
+            .iter()
+            .find(|m| m.id == can_dbc::MessageId::Standard(f.id() as u16))
+            .unwrap_or_else(|| panic!("frame {f} has no DBC message"));
+        assert_eq!(m.size as usize, f.len(), "frame {f} vs DBC {}", m.name);
+    }
 }
 
 #[test]

@@ -134,6 +134,10 @@ enum Command {
         controller_node: u8,
         #[arg(long, default_value_t = 16)]
         actuator_node: u8,
+        /// The whole bus of a configuration instead: its nodes and, for standard (CiA 402/401)
+        /// nodes, their PDOs as mapped, with the axis' scaling.
+        #[arg(long)]
+        config: Option<PathBuf>,
     },
 }
 
@@ -475,8 +479,19 @@ fn run(args: Args) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Dbc {
+            config: Some(config),
+            ..
+        } => {
+            let c = Config::load(&config)?;
+            let text = actuatord::daemon::profile_dbc::render_config_dbc(&c)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", config.display()))?;
+            print!("{text}");
+            Ok(())
+        }
+        Command::Dbc {
             controller_node,
             actuator_node,
+            config: None,
         } => {
             print!(
                 "{}",

@@ -10,6 +10,7 @@ pub mod learned;
 pub mod node;
 pub mod notify;
 pub mod profile_config;
+pub mod profile_dbc;
 pub mod profile_link;
 pub mod profile_setup;
 pub mod record;
