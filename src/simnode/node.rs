@@ -143,7 +143,10 @@ impl SimNode {
             if !p.handle(frame, self.state, send) {
                 return;
             }
-            self.counters.commands += 1;
+            // Its PDOs are the commands; SDO requests are not.
+            if id != crate::canopen::sdo::request_cob_id(self.node_id) {
+                self.counters.commands += 1;
+            }
         } else if id == messages::COMMAND.cob_id(self.node_id) {
             match CommandPdo::decode(frame) {
                 // PDOs count only in operational (CiA 301).
