@@ -441,3 +441,53 @@ fn a_mapping_from_the_eds_is_checked_on_the_node() {
         "{e}"
     );
 }
+
+#[test]
+fn the_simulated_nodes_eds_files_are_what_the_sim_prints() {
+    for profile in ["cia402", "cia401"] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_actuator"))
+            .args(["sim", "--profile", profile, "--print-eds"])
+            .output()
+            .expect("actuator sim --print-eds");
+        assert!(out.status.success());
+        let file = std::fs::read(root(&format!("dbc/actuator-sim-{profile}.eds"))).expect("eds");
+        assert!(
+            out.stdout == file,
+            "dbc/actuator-sim-{profile}.eds is stale: regenerate it with actuator sim --profile {profile} --print-eds"
+        );
+    }
+}
+
+#[test]
+fn profile_keys_are_checked_with_their_file_and_key() {
+    let text = std::fs::read_to_string(root("config/cia402_linear_axis.toml")).expect("config");
+    for (from, to, key) in [
+        ("profile = \"cia402\"\n", "", "command"),
+        (
+            "command = \"torque\"\n",
+            "command = \"voltage\"\n",
+            "command",
+        ),
+        (
+            "position_m_per_inc = 1e-6\n",
+            "position_m_per_inc = 0.0\n",
+            "cia402.position_m_per_inc",
+        ),
+        (
+            "[axis.controller]\n",
+            "[axis.cia401]\nposition_input = 1\nposition_m_per_count = 1e-6\n\
+             command_output = 1\ncommand_per_count = 0.001\n\n[axis.controller]\n",
+            "cia401",
+        ),
+    ] {
+        assert!(text.contains(from), "{from}");
+        let e = Config::from_toml(&text.replace(from, to), Path::new("drive.toml"))
+            .err()
+            .unwrap_or_else(|| panic!("{from} -> {to} must be refused"));
+        let message = e.to_string();
+        assert!(
+            message.contains("drive.toml") && message.contains(key),
+            "{from} -> {to}: {message}"
+        );
+    }
+}
