@@ -491,3 +491,47 @@ fn profile_keys_are_checked_with_their_file_and_key() {
         );
     }
 }
+
+#[test]
+fn a_cia402_drive_in_csv_follows_the_velocity_the_loop_commands() {
+    // The drive axis with a P position loop whose output is the target velocity (CSV, 60FFh):
+    // the drive's own velocity loop does the rest. The force-model sections do not apply.
+    let text = std::fs::read_to_string(root("config/cia402_linear_axis.toml")).expect("config");
+    let (head, tail) = text.split_at(text.find("[axis.controller]").expect("controller"));
+    let limits = tail.find("[axis.limits]").expect("limits");
+    let text = format!(
+        "{}[axis.controller]\n# v = 50 1/s x e, m/s.\nq_per_m = [50.0]\noutput_min = -0.5\noutput_max = 0.5\n\n{}",
+        head.replace("command = \"torque\"", "command = \"velocity\""),
+        &tail[limits..]
+    );
+    let config = Config::from_toml(&text, Path::new("csv.toml")).expect("CSV config");
+    let node = sim(
+        Profile::Cia402,
+        "config/plants/linear_axis_drive.toml",
+        vec![],
+        config.cycle.period_s,
+    );
+    let mut rig = Rig::new(&config, node).expect("setup");
+    rig.run(2.0);
+    assert_eq!(
+        rig.sim.profile().expect("p").drive_state(),
+        State::OperationEnabled
+    );
+    // RPDO1: controlword and the 32-bit target velocity in µm/s.
+    let (_, f) = rig
+        .sent
+        .iter()
+        .rev()
+        .find(|(_, f)| f.id() == 0x210)
+        .expect("RPDO1");
+    assert_eq!(f.len(), 6);
+    let last = rig.records.last().expect("records");
+    let v = i32::from_le_bytes([f.data()[2], f.data()[3], f.data()[4], f.data()[5]]);
+    assert!(
+        (f64::from(v) * 1e-6 - last.command_velocity).abs() < 2e-6,
+        "{v} vs {last:?}"
+    );
+    let mean = rig.mean_position(1.8, 2.0);
+    eprintln!("cia402 CSV: setpoint 20 mm: position {:.4} mm", mean * 1e3);
+    assert!((mean - 0.02).abs() < 40e-6, "{mean}");
+}

@@ -821,7 +821,7 @@ impl ProfileNode {
             }
         }
         let command = match self.profile {
-            Profile::Cia402 => self.drive_step(plant),
+            Profile::Cia402 => self.drive_step(plant, period_s),
             Profile::Cia401 => {
                 let raw = self.f64_at(cia401::ANALOG_OUTPUTS_16, 1) as i16;
                 let scaling = match plant.family() {
@@ -904,7 +904,7 @@ impl ProfileNode {
 
     /// The drive's cycle: scheduled faults, automatic transitions, and the force or torque it
     /// applies in the mode of operation (none while not "operation enabled").
-    fn drive_step(&mut self, plant: &mut dyn Plant) -> f64 {
+    fn drive_step(&mut self, plant: &mut dyn Plant, dt: f64) -> f64 {
         while let Some(f) = self.drive_faults.get(self.next_drive_fault) {
             if f.at_s > plant.time_s() + 1e-9 {
                 break;
@@ -932,7 +932,6 @@ impl ProfileNode {
                 let actual = self.f64_at(cia402::VELOCITY_ACTUAL, 0) * DRIVE_VELOCITY_UNIT;
                 let e = target - actual;
                 // PI velocity loop: F = K_P e + K_I ∫e dt, the integral held at the torque limit.
-                let dt = 1e-3;
                 let f = VELOCITY_KP * e + VELOCITY_KI * (self.velocity_integral + e * dt);
                 if f.abs() < max_n {
                     self.velocity_integral += e * dt;
