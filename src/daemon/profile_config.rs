@@ -7,7 +7,6 @@ use crate::canopen::profile::cia401::{self, Scaling};
 use crate::canopen::profile::cia402::{self, Mode};
 use crate::canopen::profile::mapping::{Direction, MappedObject, Pdo};
 use serde::Deserialize;
-use std::path::PathBuf;
 
 /// What the axis' actuator node speaks.
 #[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
@@ -329,9 +328,4 @@ pub fn resolve_eds(axis: &mut AxisConfig, folder: &std::path::Path) {
             *f = folder.join(&*f);
         }
     }
-}
-
-/// An axis' EDS path, for messages.
-pub fn eds_path(axis: &AxisConfig) -> Option<&PathBuf> {
-    axis.eds.as_ref()
 }

@@ -135,7 +135,7 @@ fn mapped_signal(axis: &AxisConfig, id: ObjectId, start_bit: u16, bits: u8) -> B
 }
 
 /// The messages of one standard node.
-fn node_messages(axis: &AxisConfig, controller_node: u8) -> Result<Vec<BusMessage>, String> {
+fn node_messages(axis: &AxisConfig) -> Result<Vec<BusMessage>, String> {
     let n = u32::from(axis.actuator_node_id);
     let node_name = format!("{}_node", axis.name);
     let pdos = planned_layout(axis).map_err(|e| e.to_string())?;
@@ -211,7 +211,6 @@ fn node_messages(axis: &AxisConfig, controller_node: u8) -> Result<Vec<BusMessag
         comment: format!("heartbeat of node {n}"),
         signals: vec![signal("nmt_state", 0, 8, false, "NMT state")],
     });
-    let _ = controller_node;
     Ok(out)
 }
 
@@ -231,7 +230,7 @@ pub fn render_config_dbc(config: &Config) -> Result<String, String> {
         .filter(|a| a.profile != ProfileKind::Actuatord)
     {
         nodes.push(format!("{}_node", a.name));
-        extra.extend(node_messages(a, config.node.node_id)?);
+        extra.extend(node_messages(a)?);
     }
     Ok(render_bus(config.node.node_id, &ours, &nodes, &extra))
 }
