@@ -535,3 +535,29 @@ fn a_cia402_drive_in_csv_follows_the_velocity_the_loop_commands() {
     eprintln!("cia402 CSV: setpoint 20 mm: position {:.4} mm", mean * 1e3);
     assert!((mean - 0.02).abs() < 40e-6, "{mean}");
 }
+
+#[test]
+fn a_drive_already_in_fault_at_start_up_is_named_by_its_error_code() {
+    let config = drive_config();
+    let fault: DriveFault = "0x7305@0s".parse().expect("fault");
+    let mut node = sim(
+        Profile::Cia402,
+        "config/plants/linear_axis_drive.toml",
+        vec![fault],
+        config.cycle.period_s,
+    );
+    // SYNCs from before the daemon: the drive faults and sends its EMCY to nobody.
+    let mut early = vec![];
+    for _ in 0..3 {
+        let sync = actuatord::canopen::SyncCounter::default().encode();
+        node.handle(&sync, &mut |f| early.push(*f), &mut |_| {});
+    }
+    assert!(early.iter().any(|f| f.id() == 0x090), "{early:?}");
+    assert_eq!(node.profile().expect("p").drive_state(), State::Fault);
+    let mut rig = Rig::new(&config, node).expect("setup reads 603Fh");
+    rig.run(0.3);
+    let emcys = rig.emcys();
+    let (_, e) = emcys.first().expect("the axis' fault");
+    assert_eq!(e.error_code, 0x7305, "{emcys:?}");
+    assert!(e.flags.contains(FaultKind::NodeState));
+}

@@ -199,6 +199,7 @@ impl ControllerNode {
                         .as_ref()
                         .and_then(|d| d.rated_torque_nm)
                         .unwrap_or(0.0),
+                    error_code: 0,
                 };
                 ProfileLink::new(a, &layout)
             })

@@ -22,6 +22,8 @@ pub struct NodeLayout {
     pub pdos: Vec<Pdo>,
     /// 6076h in N·m (N), CiA 402 only.
     pub rated_torque_nm: f64,
+    /// 603Fh read at start-up: a drive already in fault names it before any EMCY is seen.
+    pub error_code: u16,
 }
 
 /// What a received frame was to the link.
@@ -88,7 +90,7 @@ impl ProfileLink {
                     dc_link_v_per_unit: d.dc_link_v_per_unit,
                     rated_torque_nm: layout.rated_torque_nm,
                     statusword: 0,
-                    emcy_code: 0,
+                    emcy_code: layout.error_code,
                     reset_grace: 0,
                 }
             }

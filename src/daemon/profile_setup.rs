@@ -297,6 +297,7 @@ pub fn configure(bus: &mut dyn Bus, axis: &AxisConfig) -> Result<NodeLayout, Set
             return Ok(NodeLayout {
                 pdos: vec![],
                 rated_torque_nm: 0.0,
+                error_code: 0,
             })
         }
         ProfileKind::Cia402 => (
@@ -339,6 +340,7 @@ pub fn configure(bus: &mut dyn Bus, axis: &AxisConfig) -> Result<NodeLayout, Set
         }
     }
     let mut rated_torque_nm = 0.0;
+    let mut error_code = 0;
     if let (ProfileKind::Cia402, Some(d)) = (axis.profile, &axis.cia402) {
         let mode = drive_mode(axis.command).map_or(0, |m| m.code());
         s.write(
@@ -368,9 +370,12 @@ pub fn configure(bus: &mut dyn Bus, axis: &AxisConfig) -> Result<NodeLayout, Set
                 f64::from(mnm) * 1e-3
             }
         };
+        // A drive that is in fault already announced it before we listened.
+        error_code = s.read(ObjectId::new(cia402::ERROR_CODE, 0), "error code")? as u16;
     }
     Ok(NodeLayout {
         pdos,
         rated_torque_nm,
+        error_code,
     })
 }
