@@ -62,6 +62,18 @@ enum Command {
         /// Offline: simulated seconds.
         #[arg(long, default_value_t = 10.0)]
         seconds: f64,
+        /// Speak a standard profile instead of the actuatord frames: cia402 (a servo drive,
+        /// CST/CSV; the plant takes force or torque) or cia401 (an analog I/O module wired to
+        /// the plant: AI1 position 1 µm, AI2 current 1 mA, AI3 supply 1 mV or 100 Pa, AO1
+        /// command 1 mV or 1e-4 duty, per count).
+        #[arg(long)]
+        profile: Option<actuatord::simnode::Profile>,
+        /// A CiA 402 drive fault at a plant time, CODE@TIME, e.g. 0x4310@2s. Repeatable.
+        #[arg(long = "drive-fault")]
+        drive_faults: Vec<actuatord::simnode::DriveFault>,
+        /// Print the simulated profile node's EDS (its factory dictionary) and exit.
+        #[arg(long)]
+        print_eds: bool,
     },
     /// Daemon and simulated solenoid in one process: no CAN hardware, no root.
     Demo {
@@ -122,6 +134,10 @@ enum Command {
         controller_node: u8,
         #[arg(long, default_value_t = 16)]
         actuator_node: u8,
+        /// The whole bus of a configuration instead: its nodes and, for standard (CiA 402/401)
+        /// nodes, their PDOs as mapped, with the axis' scaling.
+        #[arg(long)]
+        config: Option<PathBuf>,
     },
 }
 
@@ -269,18 +285,55 @@ fn run(args: Args) -> anyhow::Result<()> {
             duration_s,
             record,
             seconds,
+            profile,
+            drive_faults,
+            print_eds,
         } => {
+            if print_eds {
+                let profile = profile.ok_or_else(|| {
+                    anyhow::anyhow!("--print-eds needs --profile cia402 or cia401")
+                })?;
+                let od = actuatord::simnode::profile::dictionary(profile, node_id);
+                let name = match profile {
+                    actuatord::simnode::Profile::Cia402 => "drive",
+                    actuatord::simnode::Profile::Cia401 => "I/O module",
+                };
+                let info = actuatord::canopen::EdsInfo {
+                    file_name: format!("actuator-sim-{profile}.eds"),
+                    description: format!("actuator sim --profile {profile}: simulated {name}"),
+                    product_name: format!("actuator sim {profile}"),
+                    ..Default::default()
+                };
+                print!("{}", actuatord::canopen::render_eds(&od, &info));
+                return Ok(());
+            }
+            anyhow::ensure!(
+                drive_faults.is_empty() || profile == Some(actuatord::simnode::Profile::Cia402),
+                "--drive-fault needs --profile cia402"
+            );
             let family_name = family.map_or("solenoid", |f| f.name());
             let plant =
                 plant.unwrap_or_else(|| PathBuf::from(format!("config/plants/{family_name}.toml")));
             let spec = actuatord::physics::load_spec(&plant)?;
             anyhow::ensure!(
-                matches!(spec.command, CommandUnit::Volt | CommandUnit::Duty),
+                profile.is_some() || matches!(spec.command, CommandUnit::Volt | CommandUnit::Duty),
                 "{}: command {:?} cannot be carried by the command frame (voltage or duty); set command = \"voltage\"",
                 plant.display(),
                 spec.command
             );
             let model = spec.build_named(&plant.display().to_string())?;
+            if let Some(profile) = profile {
+                let drive = profile == actuatord::simnode::Profile::Cia402;
+                let takes_force =
+                    matches!(spec.command, CommandUnit::Newton | CommandUnit::NewtonMetre);
+                anyhow::ensure!(
+                    drive == takes_force,
+                    "{}: command {:?} does not fit --profile {profile}: a cia402 drive applies force or torque (command = \"force\" or \"torque\"), a cia401 module outputs voltage or duty",
+                    plant.display(),
+                    spec.command
+                );
+                anyhow::ensure!(record.is_none(), "--record runs offline without a profile");
+            }
             if let Some(csv) = record {
                 let config =
                     config.unwrap_or_else(|| PathBuf::from(format!("config/{family_name}.toml")));
@@ -306,7 +359,18 @@ fn run(args: Args) -> anyhow::Result<()> {
                 if locked { "" } else { " (memory not locked)" }
             );
             let mut node = SimNode::new(node_id, model, period_s, faults);
-            bus.accept_only(&node.accepted_ids())?;
+            if let Some(profile) = profile {
+                eprintln!("actuator sim: speaking {profile}");
+                node = node.with_profile(actuatord::simnode::ProfileNode::new(
+                    profile,
+                    node_id,
+                    drive_faults,
+                ));
+            } else {
+                // A standard node's PDO identifiers are whatever its master maps over SDO, so
+                // only our own node can filter by a fixed list.
+                bus.accept_only(&node.accepted_ids())?;
+            }
             let stop = Arc::new(AtomicBool::new(false));
             watch_signals(stop.clone())?;
             run_sim_node(
@@ -479,8 +543,19 @@ fn run(args: Args) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Dbc {
+            config: Some(config),
+            ..
+        } => {
+            let c = Config::load(&config)?;
+            let text = actuatord::daemon::profile_dbc::render_config_dbc(&c)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", config.display()))?;
+            print!("{text}");
+            Ok(())
+        }
+        Command::Dbc {
             controller_node,
             actuator_node,
+            config: None,
         } => {
             print!(
                 "{}",

@@ -199,6 +199,31 @@ fn start_bus(
         );
     }
     let mut node = ControllerNode::new(&config)?;
+    // Standard nodes (CiA 402 drives, CiA 401 modules) get their PDO layout over SDO before
+    // the cycle starts them.
+    for (index, axis) in config.axis.iter().enumerate() {
+        if axis.profile == actuatord::daemon::profile_config::ProfileKind::Actuatord {
+            continue;
+        }
+        let layout = actuatord::daemon::profile_setup::configure(&mut bus, axis)?;
+        for pdo in layout.pdos.iter().filter(|p| p.enabled) {
+            tracing::info!(
+                axis = %axis.name,
+                node = axis.actuator_node_id,
+                profile = axis.profile.name(),
+                "{} on 0x{:03X}, transmission type {}, {}",
+                pdo.label(),
+                pdo.cob_id,
+                pdo.transmission_type,
+                pdo.objects
+                    .iter()
+                    .map(|o| format!("{}/{}", o.id, o.bits))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            );
+        }
+        node.set_node_layout(index, &layout);
+    }
     let (state_sink, state_writer) = match &config.state.file {
         Some(file) => {
             restore_state(&mut node, file);

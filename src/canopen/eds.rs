@@ -59,7 +59,8 @@ impl ObjectList {
             0x1000 | 0x1001 | 0x1018 => Some(Self::Mandatory),
             0x1002..=0x1FFF => Some(Self::Optional),
             0x2000..=0x5FFF => Some(Self::Manufacturer),
-            // Standardised profile area (6000h..9FFFh) and others: none used here.
+            // The standardised device profile area (CiA 402, CiA 401 nodes).
+            0x6000..=0x9FFF => Some(Self::Optional),
             _ => None,
         }
     }
@@ -107,15 +108,25 @@ pub fn render_eds(od: &ObjectDictionary, info: &EdsInfo) -> String {
             u8::from(info.baud_rates_kbit.contains(&rate))
         ));
     }
-    // The daemon starts its actuator nodes: a simple NMT master, not a slave.
-    w("SimpleBootUpMaster=1".into());
-    w("SimpleBootUpSlave=0".into());
-    w("Granularity=0".into());
-    w("DynamicChannelsSupported=0".into());
+    let count = |range: std::ops::RangeInclusive<u16>| {
+        od.objects()
+            .iter()
+            .filter(|o| range.contains(&o.index))
+            .count()
+    };
+    let (rx, tx) = (count(0x1400..=0x15FF), count(0x1800..=0x19FF));
+    // The daemon starts its actuator nodes: a simple NMT master, not a slave; its PDOs have a
+    // fixed mapping (dbc/actuatord.dbc). A node with PDO parameters (a simulated CiA 402/401
+    // node) is a slave whose PDOs are configured by its master.
+    let slave = rx + tx > 0;
+    w(format!("SimpleBootUpMaster={}", u8::from(!slave)));
+    w(format!("SimpleBootUpSlave={}", u8::from(slave)));
+    // Mapping granularity in bits: 8 where PDOs can be mapped, 0 where they cannot.
+    w(format!("Granularity={}", if slave { 8 } else { 0 }));
+    w(format!("DynamicChannelsSupported={}", u8::from(slave)));
     w("GroupMessaging=0".into());
-    // The PDOs have a fixed mapping (dbc/actuatord.dbc), not configurable PDO objects.
-    w("NrOfRXPDO=0".into());
-    w("NrOfTXPDO=0".into());
+    w(format!("NrOfRXPDO={rx}"));
+    w(format!("NrOfTXPDO={tx}"));
     w("LSS_Supported=0".into());
     w(String::new());
     w("[DummyUsage]".into());

@@ -14,6 +14,7 @@ pub mod messages;
 mod nmt;
 pub mod od;
 mod pdo;
+pub mod profile;
 pub mod sdo;
 mod signal;
 

@@ -302,6 +302,8 @@ pub struct Axis {
     last_heartbeat_s: f64,
     node_state: Option<NmtState>,
     node_was_operational: bool,
+    /// The error code of a CiA 402 drive in fault: the node is out of operation.
+    drive_fault: Option<u16>,
     last_command: f64,
     last_compensation: f64,
     last_dither: f64,
@@ -484,6 +486,7 @@ impl Axis {
             missing_cycles: 0,
             last_heartbeat_s: 0.0,
             node_state: None,
+            drive_fault: None,
             node_was_operational: false,
             last_command: cfg.safe_command,
             last_compensation: 0.0,
@@ -512,6 +515,16 @@ impl Axis {
     /// heartbeat timeout starts again now instead of firing on the outage itself.
     pub fn on_bus_restored(&mut self, now_s: f64) {
         self.last_heartbeat_s = self.last_heartbeat_s.max(now_s);
+    }
+
+    /// A CiA 402 drive's fault as its statusword shows it (`None`: not in fault). Supervised
+    /// like a node leaving operational (`node_state`).
+    pub fn set_drive_fault(&mut self, code: Option<u16>) {
+        self.drive_fault = code;
+    }
+
+    pub fn drive_fault(&self) -> Option<u16> {
+        self.drive_fault
     }
 
     /// A new cycle: the readings held so far are from before its SYNC.
@@ -548,6 +561,7 @@ impl Axis {
         self.missing_cycles = old.missing_cycles;
         self.last_heartbeat_s = old.last_heartbeat_s;
         self.node_state = old.node_state;
+        self.drive_fault = old.drive_fault;
         self.node_was_operational = old.node_was_operational;
         self.supervisor.keep_latched(old.supervisor.latched());
         // What the axis learned is kept: a new parameter is no reason to forget the friction.
@@ -703,8 +717,9 @@ impl Axis {
 
     /// Stage "supervision": limit checks on this cycle's readings.
     pub fn supervise(&mut self, now_s: f64) -> SupervisionOutput {
-        let node_operational =
-            !self.node_was_operational || self.node_state == Some(NmtState::Operational);
+        let node_operational = (!self.node_was_operational
+            || self.node_state == Some(NmtState::Operational))
+            && self.drive_fault.is_none();
         let mut limits = self.supervisor.step(&SupervisionInput {
             setpoint: self.reference,
             position: self.sensor.position,
@@ -798,9 +813,10 @@ impl Axis {
                     self.operating_points.as_mut(),
                     self.adaptive_friction.as_mut(),
                 ) {
+                    // A drive's supply is its DC link voltage.
                     let supply = match self.command_kind {
-                        CommandKind::Voltage => self.sensor.supply_voltage_v,
                         CommandKind::Duty => self.supply_pressure_pa,
+                        _ => self.sensor.supply_voltage_v,
                     };
                     let op = OperatingPoint {
                         position_m: y,

@@ -32,10 +32,24 @@ pub fn bus_load(config: &Config) -> BusLoad {
         (&HEARTBEAT_CONTROLLER, heartbeat_hz),
         (&LOOP_STATUS, status_hz),
     ];
+    // A standard node's synchronous PDOs as they will be mapped: (frames/s, bits/s).
+    let mut mapped = (0.0, 0.0);
     for axis in &config.axis {
-        traffic.push((&SENSOR, cycle_hz));
-        traffic.push((&COMMAND, cycle_hz));
-        if axis.command == CommandKind::Duty {
+        if axis.profile != super::profile_config::ProfileKind::Actuatord {
+            let pdos = super::profile_setup::planned_layout(axis)
+                .unwrap_or_else(|_| super::profile_config::desired_pdos(axis));
+            for p in pdos.iter().filter(|p| p.enabled && !p.objects.is_empty()) {
+                if (1..=240).contains(&p.transmission_type) {
+                    let hz = cycle_hz / f64::from(p.transmission_type);
+                    mapped.0 += hz;
+                    mapped.1 += frame_bits(p.len_bytes()) * hz;
+                }
+            }
+        } else {
+            traffic.push((&SENSOR, cycle_hz));
+            traffic.push((&COMMAND, cycle_hz));
+        }
+        if axis.command == CommandKind::Duty && axis.profile == Default::default() {
             traffic.push((&SUPPLY_PRESSURE, cycle_hz));
         }
         // Actuator nodes beat at the same rate as this node (as `actuator sim` does).
@@ -49,8 +63,12 @@ pub fn bus_load(config: &Config) -> BusLoad {
             traffic.push((m, status_hz));
         }
     }
-    let bits_per_s: f64 = traffic.iter().map(|(m, hz)| frame_bits(m.dlc) * hz).sum();
-    let frames_per_s: f64 = traffic.iter().map(|(_, hz)| hz).sum();
+    let bits_per_s: f64 = traffic
+        .iter()
+        .map(|(m, hz)| frame_bits(m.dlc) * hz)
+        .sum::<f64>()
+        + mapped.1;
+    let frames_per_s: f64 = traffic.iter().map(|(_, hz)| hz).sum::<f64>() + mapped.0;
     BusLoad {
         bits_per_s,
         frames_per_s,
@@ -62,6 +80,23 @@ pub fn bus_load(config: &Config) -> BusLoad {
 mod tests {
     use super::*;
     use std::path::Path;
+
+    #[test]
+    fn a_cia402_axis_counts_its_pdos_as_mapped() {
+        let c = Config::load(Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/config/cia402_linear_axis.toml"
+        )))
+        .expect("config");
+        let l = bus_load(&c);
+        // 500 Hz: SYNC (0 bytes) + RPDO1 (4) + TPDO1 (8) + TPDO2 (8), then the slower frames.
+        let cyclic = 500.0 * (frame_bits(0) + frame_bits(4) + frame_bits(8) * 2.0);
+        assert!(
+            l.bits_per_s > cyclic && l.bits_per_s < cyclic * 1.1,
+            "{l:?}"
+        );
+        assert!(l.frames_per_s > 2000.0 && l.frames_per_s < 2200.0, "{l:?}");
+    }
 
     #[test]
     fn frame_lengths_match_the_worst_case_formula() {

@@ -195,6 +195,10 @@ pub enum CommandKind {
     Voltage,
     /// Signed valve duty, -1..1 (pneumatic).
     Duty,
+    /// Torque in N·m, force in N on a linear axis: a CiA 402 drive's target torque (CST).
+    Torque,
+    /// Velocity in m/s (rad/s): a CiA 402 drive's target velocity (CSV).
+    Velocity,
 }
 
 #[derive(Debug, Clone, Deserialize, PartialEq)]
@@ -239,6 +243,16 @@ pub struct AxisConfig {
     /// A setpoint schedule; setpoint frames on the bus override it until its next entry.
     #[serde(default)]
     pub setpoints: Vec<SetpointStep>,
+    /// What the actuator node speaks: "actuatord" (default), "cia402" or "cia401".
+    #[serde(default)]
+    pub profile: super::profile_config::ProfileKind,
+    /// A CiA 402 drive's units (`profile = "cia402"`).
+    pub cia402: Option<super::profile_config::Cia402Section>,
+    /// A CiA 401 module's channels and scaling (`profile = "cia401"`).
+    pub cia401: Option<super::profile_config::Cia401Section>,
+    /// The node's EDS: its default PDO mapping is used (and checked on the node) instead of
+    /// configuring one over SDO; relative to the configuration file.
+    pub eds: Option<std::path::PathBuf>,
 }
 
 fn yes() -> bool {
@@ -648,6 +662,7 @@ impl Config {
                     *f = folder.join(&*f);
                 }
             }
+            super::profile_config::resolve_eds(axis, folder);
             let table = axis.parameter_estimation.as_mut();
             if let Some(f) = table.and_then(|p| p.fault_table.as_mut()) {
                 if f.is_relative() {
@@ -736,6 +751,7 @@ impl Config {
                 ));
             }
             seen.push(axis.actuator_node_id);
+            super::profile_config::check(axis).map_err(|(key, rule)| bad(&at(&key), rule))?;
             let c = &axis.controller;
             if let Some(f) = &c.state_space_file {
                 if !c.q_per_m.is_empty() || !c.p.is_empty() {
@@ -1206,13 +1222,14 @@ impl AxisConfig {
                         .to_string(),
                 ));
             }
+            // A drive's supply is its DC link voltage.
             let (key, wanted) = match self.command {
-                CommandKind::Voltage => ("supply_voltage_edges_v", &t.supply_voltage_edges_v),
                 CommandKind::Duty => ("supply_pressure_edges_pa", &t.supply_pressure_edges_pa),
+                _ => ("supply_voltage_edges_v", &t.supply_voltage_edges_v),
             };
             let other = match self.command {
-                CommandKind::Voltage => ("supply_pressure_edges_pa", &t.supply_pressure_edges_pa),
                 CommandKind::Duty => ("supply_voltage_edges_v", &t.supply_voltage_edges_v),
+                _ => ("supply_pressure_edges_pa", &t.supply_pressure_edges_pa),
             };
             if wanted.is_none() || other.1.is_some() {
                 return Err((
@@ -1424,10 +1441,14 @@ impl AxisConfig {
         if let Some(c) = self.parameter_estimator_config(period_s) {
             ParameterEstimator::new(c).map_err(param("parameter_estimation"))?;
         }
-        if self.observer.is_some() && self.command != CommandKind::Voltage {
+        // A force (torque) command is the observer's model with a unit force gain.
+        if self.observer.is_some()
+            && !matches!(self.command, CommandKind::Voltage | CommandKind::Torque)
+        {
             return Err((
                 "observer".to_string(),
-                "models the solenoid drive, which needs command = \"voltage\"".to_string(),
+                "models the drive force, which needs command = \"voltage\" or \"torque\""
+                    .to_string(),
             ));
         }
         Ok(())

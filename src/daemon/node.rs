@@ -4,6 +4,7 @@
 use super::axis::{Axis, AxisStep};
 use super::config::{cycles, BusLossPolicy, CommandKind, Config};
 use super::dictionary::{self, LiveObjects, LoopFigures, WriteEffect};
+use super::profile_link::{NodeLayout, ProfileLink, Received};
 use super::record::{CycleRecord, Event, Record};
 use crate::bus::{BusFault, Frame};
 use crate::canopen::{
@@ -153,6 +154,8 @@ pub struct ControllerNode {
     /// EMCY of a bus fault, sent with the next cycle's frames (once the bus carries them).
     pending_bus_emcy: Option<(BusFault, FaultState)>,
     last_bus_fault: Option<(BusFault, f64)>,
+    /// Per axis, the link to a standard (CiA 402/401) actuator node; `None` for ours.
+    links: Vec<Option<ProfileLink>>,
 }
 
 /// A configuration with its dictionary and axes built, ready to be swapped in at a cycle
@@ -203,7 +206,26 @@ impl ControllerNode {
             .collect::<Result<Vec<_>, _>>()?;
         let od = dictionary::build(config)?;
         let live = LiveObjects::new(&od, axes.len());
+        // The layout the daemon gives standard nodes at start-up; the runtime replaces it with
+        // the one it configured and checked ([`ControllerNode::set_node_layout`]).
+        let links = config
+            .axis
+            .iter()
+            .map(|a| {
+                let layout = NodeLayout {
+                    pdos: super::profile_config::desired_pdos(a),
+                    rated_torque_nm: a
+                        .cia402
+                        .as_ref()
+                        .and_then(|d| d.rated_torque_nm)
+                        .unwrap_or(0.0),
+                    error_code: 0,
+                };
+                ProfileLink::new(a, &layout)
+            })
+            .collect();
         Ok(Self {
+            links,
             config: config.clone(),
             sdo: SdoServer::new(config.node.node_id),
             live,
@@ -235,6 +257,19 @@ impl ControllerNode {
             period_s,
             stage_clock: None,
         })
+    }
+
+    /// The layout a standard node of axis `index` was given and checked at start-up
+    /// ([`super::profile_setup::configure`]).
+    pub fn set_node_layout(&mut self, index: usize, layout: &NodeLayout) {
+        if let (Some(slot), Some(axis)) = (self.links.get_mut(index), self.config.axis.get(index)) {
+            *slot = ProfileLink::new(axis, layout);
+        }
+    }
+
+    /// The link to axis `index`'s standard node, if it has one.
+    pub fn profile_link(&self, index: usize) -> Option<&ProfileLink> {
+        self.links.get(index).and_then(Option::as_ref)
     }
 
     /// Give the node a nanosecond clock, so it times each stage of the cycle.
@@ -370,6 +405,9 @@ impl ControllerNode {
         for axis in self.axes.iter_mut() {
             axis.begin_cycle();
         }
+        for link in self.links.iter_mut().flatten() {
+            link.begin_cycle();
+        }
     }
 
     /// The SYNC that opens a cycle.
@@ -465,7 +503,34 @@ impl ControllerNode {
             }
             return;
         }
+        for index in 0..self.links.len() {
+            let Some(link) = self.links[index].as_mut() else {
+                continue;
+            };
+            match link.handle(frame) {
+                Received::NotMine => continue,
+                Received::Taken => {}
+                Received::Complete(sensor) => self.axes[index].on_sensor(sensor),
+                Received::Malformed { expected } => {
+                    self.counters.frames_malformed += 1;
+                    record(Record::Event(Event::Malformed {
+                        t_s: now_s,
+                        frame: *frame,
+                        error: crate::canopen::DecodeError::WrongLength {
+                            name: "mapped_pdo",
+                            id,
+                            got: frame.len(),
+                            expected,
+                        },
+                    }));
+                }
+            }
+            return;
+        }
         for index in 0..self.axes.len() {
+            if self.links[index].is_some() {
+                continue;
+            }
             let node = self.axes[index].actuator_node_id;
             if id == messages::SENSOR.cob_id(node) {
                 match SensorPdo::decode(frame) {
@@ -537,8 +602,13 @@ impl ControllerNode {
     }
 
     fn reset_faults(&mut self, axis_node: u8, now_s: f64, record: &mut dyn FnMut(Record)) {
-        for axis in self.axes.iter_mut() {
+        for (axis, link) in self.axes.iter_mut().zip(self.links.iter_mut()) {
             if axis_node == 0 || axis.actuator_node_id == axis_node {
+                if let Some(link) = link.as_mut() {
+                    // The drive's own fault is reset through its state machine.
+                    link.request_fault_reset();
+                    axis.set_drive_fault(link.drive_fault());
+                }
                 axis.reset_faults();
                 record(Record::Event(Event::FaultsReset {
                     t_s: now_s,
@@ -598,6 +668,9 @@ impl ControllerNode {
         for index in 0..self.axes.len() {
             let mut timer = StageTimer::start(self.stage_clock);
             let axis = &mut self.axes[index];
+            if let Some(link) = &self.links[index] {
+                axis.set_drive_fault(link.drive_fault());
+            }
             axis.schedule(now_s);
             timer.mark(Stage::Scheduling);
             axis.estimate();
@@ -614,16 +687,18 @@ impl ControllerNode {
                 self.counters.sensor_missed += 1;
                 self.axis_sensor_missed[index] += 1;
             }
-            if operational {
+            if let (true, Some(link)) = (operational, self.links[index].as_mut()) {
+                link.send_command(step.command, send);
+            } else if operational {
                 let command = match axis.command_kind {
-                    CommandKind::Voltage => CommandPdo {
-                        voltage_v: step.command,
-                        duty: 0.0,
-                        sync_counter,
-                    },
                     CommandKind::Duty => CommandPdo {
                         voltage_v: 0.0,
                         duty: step.command,
+                        sync_counter,
+                    },
+                    _ => CommandPdo {
+                        voltage_v: step.command,
+                        duty: 0.0,
                         sync_counter,
                     },
                 };
@@ -632,7 +707,13 @@ impl ControllerNode {
             for kind in step.supervision.raised.iter() {
                 self.counters.faults_raised += 1;
                 self.axis_faults_raised[index] += 1;
-                let emcy = step.emcy(Emcy::raised(node, kind, step.supervision.latched));
+                let mut emcy = step.emcy(Emcy::raised(node, kind, step.supervision.latched));
+                // A drive that went to fault: its own error code (603Fh, from its EMCY).
+                if let (crate::supervise::FaultKind::NodeState, Some(code)) =
+                    (kind, self.axes[index].drive_fault())
+                {
+                    emcy.error_code = code;
+                }
                 send(&emcy.encode(self.node_id));
                 record(Record::Event(Event::FaultRaised {
                     t_s: now_s,
@@ -680,6 +761,9 @@ impl ControllerNode {
             }
             timer.mark(Stage::EncodeSend);
             let mut rec = cycle_record(now_s, cycle, node, axis, &step, timing);
+            if let Some(sw) = self.links[index].as_ref().and_then(ProfileLink::statusword) {
+                rec.drive_statusword = sw;
+            }
             rec.stage_ns = timer.stage_ns;
             if status_due {
                 self.live.publish_axis(
@@ -880,13 +964,17 @@ impl ControllerNode {
         }
     }
 
-    fn send_safe_commands(&self, send: &mut dyn FnMut(&Frame)) {
+    fn send_safe_commands(&mut self, send: &mut dyn FnMut(&Frame)) {
         let sync_counter = self.sync.value();
-        for axis in &self.axes {
+        for (axis, link) in self.axes.iter().zip(self.links.iter_mut()) {
             let safe = axis.safe_command();
+            if let Some(link) = link.as_mut() {
+                link.send_command(safe, send);
+                continue;
+            }
             let (voltage_v, duty) = match axis.command_kind {
-                CommandKind::Voltage => (safe, 0.0),
                 CommandKind::Duty => (0.0, safe),
+                _ => (safe, 0.0),
             };
             send(
                 &CommandPdo {
@@ -926,11 +1014,15 @@ impl ControllerNode {
         record: &mut dyn FnMut(Record),
     ) -> Box<PreparedReload> {
         let (old, new) = (&self.config, &prepared.config);
-        let same_axes =
-            old.axis.len() == new.axis.len()
-                && old.axis.iter().zip(&new.axis).all(|(a, b)| {
-                    a.actuator_node_id == b.actuator_node_id && a.command == b.command
-                });
+        let same_axes = old.axis.len() == new.axis.len()
+            && old.axis.iter().zip(&new.axis).all(|(a, b)| {
+                a.actuator_node_id == b.actuator_node_id
+                    && a.command == b.command
+                    && a.profile == b.profile
+                    && a.cia402 == b.cia402
+                    && a.cia401 == b.cia401
+                    && a.eds == b.eds
+            });
         if old.node.node_id != new.node.node_id
             || old.bus != new.bus
             || old.cycle.period_s != new.cycle.period_s
@@ -971,7 +1063,15 @@ impl ControllerNode {
 
     /// Leave operation: every axis gets its safe command once.
     pub fn shutdown(&mut self, send: &mut dyn FnMut(&Frame)) {
+        for link in self.links.iter_mut().flatten() {
+            // Power stage off (disable voltage): the drive holds no torque once we are gone.
+            link.set_target(crate::canopen::profile::cia402::Target::Disabled);
+        }
         self.send_safe_commands(send);
+        if self.links.iter().any(Option::is_some) {
+            // Synchronous RPDOs take effect at the next SYNC: give them one.
+            send(&self.sync.encode());
+        }
         self.state = NmtState::Stopped;
         send(&encode_heartbeat(self.node_id, self.state));
     }
@@ -992,6 +1092,12 @@ fn cycle_record(
     let (command_voltage, command_duty) = match axis.command_kind {
         CommandKind::Voltage => (step.command, 0.0),
         CommandKind::Duty => (0.0, step.command),
+        _ => (0.0, 0.0),
+    };
+    let (command_torque, command_velocity) = match axis.command_kind {
+        CommandKind::Torque => (step.command, 0.0),
+        CommandKind::Velocity => (0.0, step.command),
+        _ => (0.0, 0.0),
     };
     CycleRecord {
         t_s,
@@ -1005,6 +1111,9 @@ fn cycle_record(
         supply_pressure: step.supply_pressure_pa,
         command_voltage,
         command_duty,
+        command_torque,
+        command_velocity,
+        drive_statusword: 0,
         friction_compensation: step.friction_compensation,
         following_error: step.following_error,
         fault_state: step.supervision.state.code(),

@@ -24,6 +24,12 @@ pub struct CycleRecord {
     pub supply_pressure: f64,
     pub command_voltage: f64,
     pub command_duty: f64,
+    /// Target torque of a CiA 402 axis in CST, N·m (N on a linear axis).
+    pub command_torque: f64,
+    /// Target velocity of a CiA 402 axis in CSV, m/s (rad/s).
+    pub command_velocity: f64,
+    /// Statusword (6041h) of a CiA 402 drive, 0 for other nodes.
+    pub drive_statusword: u16,
     pub friction_compensation: f64,
     pub following_error: f64,
     pub fault_state: u8,

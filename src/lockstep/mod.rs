@@ -125,6 +125,8 @@ pub fn write_csv(
         let u = match command {
             CommandKind::Voltage => r.command_voltage,
             CommandKind::Duty => r.command_duty,
+            CommandKind::Torque => r.command_torque,
+            CommandKind::Velocity => r.command_velocity,
         };
         let supply = if supply_is_pressure {
             r.supply_pressure

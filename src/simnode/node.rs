@@ -1,6 +1,7 @@
 //! A simulated actuator node, sans-I/O: on every SYNC it advances its plant by one period with
 //! the last command held and answers with its sensor frames, as a real node's firmware would.
 
+use super::profile::ProfileNode;
 use crate::bus::Frame;
 use crate::canopen::{
     decode_sync, encode_heartbeat, messages, CommandPdo, NmtCommand, NmtState, SensorPdo,
@@ -48,6 +49,8 @@ pub struct SimNode {
     next_fault: usize,
     last_sync_counter: Option<u8>,
     counters: SimCounters,
+    /// A standard profile instead of the actuatord frames.
+    profile: Option<Box<ProfileNode>>,
 }
 
 impl SimNode {
@@ -69,7 +72,19 @@ impl SimNode {
             next_fault: 0,
             last_sync_counter: None,
             counters: SimCounters::default(),
+            profile: None,
         }
+    }
+
+    /// Speak a standard profile (CiA 402 drive, CiA 401 I/O module) instead of our frames.
+    pub fn with_profile(mut self, profile: ProfileNode) -> Self {
+        self.profile = Some(Box::new(profile));
+        self
+    }
+
+    /// The standard profile's side, when the node speaks one.
+    pub fn profile(&self) -> Option<&ProfileNode> {
+        self.profile.as_deref()
     }
 
     pub fn node_id(&self) -> u8 {
@@ -93,6 +108,9 @@ impl SimNode {
         send(&encode_heartbeat(self.node_id, NmtState::Initialising));
         self.state = NmtState::PreOperational;
         self.command = 0.0;
+        if let Some(p) = self.profile.as_mut() {
+            p.reset();
+        }
     }
 
     /// The identifiers this node takes from the bus (SYNC, NMT, its command): what a real
@@ -138,6 +156,14 @@ impl SimNode {
                 Ok(_) => {}
                 Err(_) => self.malformed(frame, event),
             }
+        } else if let Some(p) = self.profile.as_mut() {
+            if !p.handle(frame, self.state, send) {
+                return;
+            }
+            // Its PDOs are the commands; SDO requests are not.
+            if id != crate::canopen::sdo::request_cob_id(self.node_id) {
+                self.counters.commands += 1;
+            }
         } else if id == messages::COMMAND.cob_id(self.node_id) {
             match CommandPdo::decode(frame) {
                 // PDOs count only in operational (CiA 301).
@@ -182,6 +208,10 @@ impl SimNode {
                 plant_time_s: self.plant.time_s(),
                 sync_count: self.counters.syncs - 1,
             });
+        }
+        if let Some(p) = self.profile.as_mut() {
+            p.on_sync(self.plant.as_mut(), self.period_s, self.state, send);
+            return;
         }
         // Physical time passes whatever the NMT state; only the PDOs wait for operational.
         self.plant.step(self.command, self.period_s);

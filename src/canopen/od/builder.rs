@@ -119,6 +119,8 @@ struct ObjectSpec {
     kind: ObjectKind,
     axis: Option<usize>,
     entries: Vec<EntrySpec>,
+    /// Subindex 0 when it is more than the highest subindex (a PDO mapping's object count).
+    sub0: Option<EntrySpec>,
 }
 
 impl ObjectDictionaryBuilder {
@@ -130,6 +132,7 @@ impl ObjectDictionaryBuilder {
             kind: ObjectKind::Var,
             axis: None,
             entries: vec![spec],
+            sub0: None,
         });
         self
     }
@@ -148,6 +151,27 @@ impl ObjectDictionaryBuilder {
             kind: ObjectKind::Record,
             axis,
             entries,
+            sub0: None,
+        });
+        self
+    }
+
+    /// A RECORD whose subindex 0 is an entry of its own, e.g. the number of mapped objects of
+    /// a PDO mapping parameter (CiA 301 §7.5.2.36), writable and smaller than the capacity.
+    pub fn record_counted(
+        mut self,
+        index: u16,
+        name: impl Into<String>,
+        sub0: EntrySpec,
+        entries: Vec<EntrySpec>,
+    ) -> Self {
+        self.objects.push(ObjectSpec {
+            index,
+            name: name.into(),
+            kind: ObjectKind::Record,
+            axis: None,
+            entries,
+            sub0: Some(sub0),
         });
         self
     }
@@ -166,6 +190,7 @@ impl ObjectDictionaryBuilder {
             kind: ObjectKind::Array,
             axis,
             entries,
+            sub0: None,
         });
         self
     }
@@ -187,6 +212,7 @@ impl ObjectDictionaryBuilder {
             kind,
             axis,
             entries: specs,
+            sub0,
         } in objects
         {
             if out_objects
@@ -208,8 +234,10 @@ impl ObjectDictionaryBuilder {
                 }
             } else {
                 let count = specs.len() as u8;
-                let sub0 = EntrySpec::ro("highest_sub_index", count)
-                    .doc("highest subindex of this object (CiA 301 §7.4.3)");
+                let sub0 = sub0.unwrap_or_else(|| {
+                    EntrySpec::ro("highest_sub_index", count)
+                        .doc("highest subindex of this object (CiA 301 §7.4.3)")
+                });
                 entries.push(entry(index, 0, axis, sub0)?);
                 for (i, spec) in specs.into_iter().enumerate() {
                     if kind == ObjectKind::Array

@@ -1,0 +1,381 @@
+//! Start-up of a standard actuator node, before the cycle runs (it blocks on SDO answers, so
+//! never on the cycle thread): wait for the node, check its device type, put it in
+//! pre-operational, give it the PDO layout the axis needs over SDO and read every parameter
+//! back, or take the layout from the node's EDS and check the node has it; for a drive, set
+//! and check the mode of operation and read the rated torque.
+
+use super::config::AxisConfig;
+use super::profile_config::{desired_pdos, drive_mode, ProfileKind};
+use super::profile_link::NodeLayout;
+use crate::bus::{Bus, BusError, BusEvent};
+use crate::canopen::od::ObjectId;
+use crate::canopen::profile::cia401;
+use crate::canopen::profile::cia402;
+use crate::canopen::profile::eds::pdos_from_eds;
+use crate::canopen::profile::mapping::{Direction, Pdo};
+use crate::canopen::sdo::{AbortCode, SdoClient, SdoError, SdoOutcome};
+use crate::canopen::NmtCommand;
+use std::time::{Duration, Instant};
+
+/// SDO answer timeout for each transfer once the node has answered once.
+const SDO_TIMEOUT: Duration = Duration::from_millis(500);
+
+/// Why a node could not be set up; each names the axis, the node and the object at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum SetupError {
+    #[error("axis {axis}: node {node} did not answer SDO (1000h) within {timeout_s} s: is it powered and on the bus?")]
+    NoAnswer {
+        axis: String,
+        node: u8,
+        timeout_s: f64,
+    },
+    #[error(
+        "axis {axis}: node {node} has device type 0x{device_type:08X}, not a CiA {profile} device"
+    )]
+    WrongDevice {
+        axis: String,
+        node: u8,
+        device_type: u32,
+        profile: u16,
+    },
+    #[error("axis {axis}: node {node} refused {object} ({what}): SDO abort {code}")]
+    Refused {
+        axis: String,
+        node: u8,
+        object: ObjectId,
+        what: String,
+        code: AbortCode,
+    },
+    #[error(
+        "axis {axis}: node {node} reads 0x{got:X} at {object} ({what}), expected 0x{expected:X}"
+    )]
+    Mismatch {
+        axis: String,
+        node: u8,
+        object: ObjectId,
+        what: String,
+        expected: u32,
+        got: u32,
+    },
+    #[error("axis {axis}: {reason}")]
+    Layout { axis: String, reason: String },
+    #[error("axis {axis}: bus: {source}")]
+    Bus {
+        axis: String,
+        #[source]
+        source: BusError,
+    },
+}
+
+/// One SDO transfer on `bus`, answered or timed out.
+fn transfer(
+    bus: &mut dyn Bus,
+    client: &mut SdoClient,
+    first: crate::bus::Frame,
+) -> Result<SdoOutcome, BusError> {
+    let start = Instant::now();
+    bus.send(&first)?;
+    loop {
+        if let Some(outcome) = client.outcome() {
+            return Ok(outcome.clone());
+        }
+        if let Some(f) = client.poll(start.elapsed().as_secs_f64()) {
+            bus.send(&f)?;
+            continue;
+        }
+        if let Some(BusEvent::Frame(frame)) =
+            bus.recv_until(Instant::now() + Duration::from_millis(10))?
+        {
+            if let Some(next) = client.handle(&frame, start.elapsed().as_secs_f64()) {
+                bus.send(&next)?;
+            }
+        }
+    }
+}
+
+struct Session<'a> {
+    bus: &'a mut dyn Bus,
+    axis: String,
+    node: u8,
+}
+
+impl Session<'_> {
+    fn bus_error(&self, source: BusError) -> SetupError {
+        SetupError::Bus {
+            axis: self.axis.clone(),
+            source,
+        }
+    }
+
+    fn read(&mut self, id: ObjectId, what: &str) -> Result<u32, SetupError> {
+        let mut c = SdoClient::new(self.node).with_timeout(SDO_TIMEOUT.as_secs_f64());
+        let first = c.start_upload(id, 0.0);
+        let outcome = transfer(self.bus, &mut c, first).map_err(|e| self.bus_error(e))?;
+        match outcome {
+            Ok(bytes) => {
+                let mut b = [0u8; 4];
+                let n = bytes.len().min(4);
+                b[..n].copy_from_slice(&bytes[..n]);
+                Ok(u32::from_le_bytes(b))
+            }
+            Err(e) => Err(self.refused(id, what, e)),
+        }
+    }
+
+    fn write(&mut self, id: ObjectId, bytes: &[u8], what: &str) -> Result<(), SetupError> {
+        let mut c = SdoClient::new(self.node).with_timeout(SDO_TIMEOUT.as_secs_f64());
+        let first = c.start_download(id, bytes, 0.0);
+        let outcome = transfer(self.bus, &mut c, first).map_err(|e| self.bus_error(e))?;
+        outcome.map(drop).map_err(|e| self.refused(id, what, e))
+    }
+
+    fn refused(&self, object: ObjectId, what: &str, e: SdoError) -> SetupError {
+        SetupError::Refused {
+            axis: self.axis.clone(),
+            node: self.node,
+            object,
+            what: what.to_string(),
+            code: e.code(),
+        }
+    }
+
+    fn check(
+        &mut self,
+        id: ObjectId,
+        what: &str,
+        expected: u32,
+        mask: u32,
+    ) -> Result<(), SetupError> {
+        let got = self.read(id, what)?;
+        if got & mask != expected & mask {
+            return Err(SetupError::Mismatch {
+                axis: self.axis.clone(),
+                node: self.node,
+                object: id,
+                what: what.to_string(),
+                expected,
+                got,
+            });
+        }
+        Ok(())
+    }
+
+    /// Ask for the device type until the node answers or `timeout` passes (it may still be
+    /// booting).
+    fn wait_for_node(&mut self, timeout: Duration) -> Result<u32, SetupError> {
+        let start = Instant::now();
+        loop {
+            match self.read(ObjectId::new(0x1000, 0), "device type") {
+                Ok(v) => return Ok(v),
+                Err(SetupError::Refused { code, .. })
+                    if code == AbortCode::TIMEOUT && start.elapsed() < timeout => {}
+                Err(SetupError::Refused { code, .. }) if code == AbortCode::TIMEOUT => {
+                    return Err(SetupError::NoAnswer {
+                        axis: self.axis.clone(),
+                        node: self.node,
+                        timeout_s: timeout.as_secs_f64(),
+                    })
+                }
+                Err(e) => return Err(e),
+            }
+        }
+    }
+}
+
+/// What a PDO parameter is, for messages: "TPDO1 (1800h/1A00h) mapping entry 2".
+fn what(pdo: &Pdo, id: ObjectId) -> String {
+    let part = if id.index == pdo.communication_index() {
+        match id.sub {
+            1 => "COB-ID".to_string(),
+            2 => "transmission type".to_string(),
+            s => format!("sub {s}"),
+        }
+    } else {
+        match id.sub {
+            0 => "number of mapped objects".to_string(),
+            s => format!("mapping entry {s}"),
+        }
+    };
+    format!("{} {part}", pdo.label())
+}
+
+/// The objects a layout must carry for the axis, with where.
+fn required(axis: &AxisConfig) -> Vec<(Direction, ObjectId)> {
+    match axis.profile {
+        ProfileKind::Actuatord => vec![],
+        ProfileKind::Cia402 => {
+            let target = match drive_mode(axis.command) {
+                Some(cia402::Mode::CyclicSynchronousVelocity) => cia402::TARGET_VELOCITY,
+                _ => cia402::TARGET_TORQUE,
+            };
+            vec![
+                (Direction::Receive, ObjectId::new(cia402::CONTROLWORD, 0)),
+                (Direction::Receive, ObjectId::new(target, 0)),
+                (Direction::Transmit, ObjectId::new(cia402::STATUSWORD, 0)),
+                (
+                    Direction::Transmit,
+                    ObjectId::new(cia402::POSITION_ACTUAL, 0),
+                ),
+            ]
+        }
+        ProfileKind::Cia401 => {
+            let Some(io) = &axis.cia401 else {
+                return vec![];
+            };
+            let mut r = vec![
+                (
+                    Direction::Receive,
+                    ObjectId::new(cia401::ANALOG_OUTPUTS_16, io.command_output),
+                ),
+                (
+                    Direction::Transmit,
+                    ObjectId::new(cia401::ANALOG_INPUTS_16, io.position_input),
+                ),
+            ];
+            for ch in [io.current_input, io.supply_input].into_iter().flatten() {
+                r.push((
+                    Direction::Transmit,
+                    ObjectId::new(cia401::ANALOG_INPUTS_16, ch),
+                ));
+            }
+            r
+        }
+    }
+}
+
+/// The layout the axis' node will run with: from its EDS when the configuration names one,
+/// else the daemon's own ([`desired_pdos`]). Checks that it carries what the axis needs, on
+/// SYNC-driven feedback PDOs.
+pub fn planned_layout(axis: &AxisConfig) -> Result<Vec<Pdo>, SetupError> {
+    let layout_error = |reason: String| SetupError::Layout {
+        axis: axis.name.clone(),
+        reason,
+    };
+    let pdos = match &axis.eds {
+        Some(file) => {
+            let text = std::fs::read_to_string(file)
+                .map_err(|e| layout_error(format!("{}: {e}", file.display())))?;
+            pdos_from_eds(&text, axis.actuator_node_id)
+                .map_err(|e| layout_error(format!("{}: {e}", file.display())))?
+        }
+        None => desired_pdos(axis),
+    };
+    let source = axis
+        .eds
+        .as_ref()
+        .map_or("the daemon's layout".to_string(), |f| {
+            f.display().to_string()
+        });
+    for (direction, id) in required(axis) {
+        let found = pdos.iter().find(|p| {
+            p.direction == direction && p.enabled && p.objects.iter().any(|o| o.id == id)
+        });
+        match found {
+            None => {
+                return Err(layout_error(format!(
+                    "{source}: no enabled {} maps {id}",
+                    direction.name()
+                )))
+            }
+            Some(p) if direction == Direction::Transmit && p.transmission_type != 1 => {
+                return Err(layout_error(format!(
+                    "{source}: {} maps {id} with transmission type {}; the cycle needs it on every SYNC (type 1)",
+                    p.label(),
+                    p.transmission_type
+                )))
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(pdos)
+}
+
+/// Set up the standard node of `axis` on `bus` (see the module documentation).
+pub fn configure(bus: &mut dyn Bus, axis: &AxisConfig) -> Result<NodeLayout, SetupError> {
+    let (profile, timeout_s) = match axis.profile {
+        ProfileKind::Actuatord => {
+            return Ok(NodeLayout {
+                pdos: vec![],
+                rated_torque_nm: 0.0,
+                error_code: 0,
+            })
+        }
+        ProfileKind::Cia402 => (
+            402u16,
+            axis.cia402.as_ref().map_or(5.0, |d| d.startup_timeout_s),
+        ),
+        ProfileKind::Cia401 => (
+            401u16,
+            axis.cia401.as_ref().map_or(5.0, |d| d.startup_timeout_s),
+        ),
+    };
+    let pdos = planned_layout(axis)?;
+    let mut s = Session {
+        bus,
+        axis: axis.name.clone(),
+        node: axis.actuator_node_id,
+    };
+    let device_type = s.wait_for_node(Duration::from_secs_f64(timeout_s))?;
+    if device_type & 0xFFFF != u32::from(profile) {
+        return Err(SetupError::WrongDevice {
+            axis: s.axis.clone(),
+            node: s.node,
+            device_type,
+            profile,
+        });
+    }
+    // CiA 302: a slave is configured in pre-operational, where its PDOs are silent.
+    let pre_op = NmtCommand::EnterPreOperational.encode(s.node);
+    s.bus.send(&pre_op).map_err(|e| s.bus_error(e))?;
+    if axis.eds.is_none() {
+        for pdo in &pdos {
+            for w in pdo.configuration_writes() {
+                s.write(w.id, &w.bytes(), &what(pdo, w.id))?;
+            }
+        }
+    }
+    for pdo in &pdos {
+        for (id, expected, mask) in pdo.expected_reads() {
+            s.check(id, &what(pdo, id), expected, mask)?;
+        }
+    }
+    let mut rated_torque_nm = 0.0;
+    let mut error_code = 0;
+    if let (ProfileKind::Cia402, Some(d)) = (axis.profile, &axis.cia402) {
+        let mode = drive_mode(axis.command).map_or(0, |m| m.code());
+        s.write(
+            ObjectId::new(cia402::MODES_OF_OPERATION, 0),
+            &mode.to_le_bytes(),
+            "modes of operation",
+        )?;
+        s.check(
+            ObjectId::new(cia402::MODES_OF_OPERATION_DISPLAY, 0),
+            "modes of operation display",
+            mode as u8 as u32,
+            0xFF,
+        )?;
+        rated_torque_nm = match d.rated_torque_nm {
+            Some(t) => t,
+            None => {
+                let mnm = s.read(ObjectId::new(cia402::RATED_TORQUE, 0), "motor rated torque")?;
+                if mnm == 0 {
+                    return Err(SetupError::Layout {
+                        axis: s.axis.clone(),
+                        reason: format!(
+                            "node {} reports a rated torque (6076h) of 0: set cia402.rated_torque_nm",
+                            s.node
+                        ),
+                    });
+                }
+                f64::from(mnm) * 1e-3
+            }
+        };
+        // A drive that is in fault already announced it before we listened.
+        error_code = s.read(ObjectId::new(cia402::ERROR_CODE, 0), "error code")? as u16;
+    }
+    Ok(NodeLayout {
+        pdos,
+        rated_torque_nm,
+        error_code,
+    })
+}

@@ -1,0 +1,563 @@
+//! The controller node against simulated standard nodes (a CiA 402 drive, a CiA 401 I/O module),
+//! frame by frame without clocks: the start-up over SDO, the closed loop, a drive fault and its
+//! reset, a refused mapping and a mapping taken from an EDS. The same runs on vcan in
+//! `tests/vcan_profiles.rs`.
+
+use actuatord::bus::{Bus, BusError, BusEvent, Frame};
+use actuatord::canopen::profile::cia402::State;
+use actuatord::canopen::{Emcy, FaultResetPdo};
+use actuatord::daemon::config::Config;
+use actuatord::daemon::node::CycleTiming;
+use actuatord::daemon::profile_setup::{configure, SetupError};
+use actuatord::daemon::record::{CycleRecord, Record};
+use actuatord::daemon::ControllerNode;
+use actuatord::simnode::{DriveFault, Profile, ProfileNode, SimNode};
+use actuatord::supervise::FaultKind;
+use std::collections::VecDeque;
+use std::path::Path;
+use std::time::Instant;
+
+fn root(path: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
+}
+
+/// A bus whose only other node is the simulated one: every frame sent reaches it at once.
+struct SimBus<'a> {
+    sim: &'a mut SimNode,
+    answers: VecDeque<Frame>,
+}
+
+impl Bus for SimBus<'_> {
+    fn send(&mut self, frame: &Frame) -> Result<(), BusError> {
+        let answers = &mut self.answers;
+        self.sim
+            .handle(frame, &mut |f| answers.push_back(*f), &mut |_| {});
+        Ok(())
+    }
+
+    fn recv_until(&mut self, _deadline: Instant) -> Result<Option<BusEvent>, BusError> {
+        Ok(self.answers.pop_front().map(BusEvent::Frame))
+    }
+
+    fn name(&self) -> &str {
+        "sim"
+    }
+}
+
+fn sim(profile: Profile, plant: &str, drive_faults: Vec<DriveFault>, period_s: f64) -> SimNode {
+    let plant = actuatord::physics::load_plant(&root(plant)).expect("plant");
+    let mut node = SimNode::new(16, plant, period_s, vec![]).with_profile(ProfileNode::new(
+        profile,
+        16,
+        drive_faults,
+    ));
+    node.boot(&mut |_| {});
+    node
+}
+
+struct Rig {
+    controller: ControllerNode,
+    sim: SimNode,
+    period_s: f64,
+    k: u64,
+    /// Frames the controller sent, with their cycle.
+    sent: Vec<(u64, Frame)>,
+    /// Every frame on the bus after the start-up.
+    bus: Vec<Frame>,
+    records: Vec<CycleRecord>,
+}
+
+impl Rig {
+    /// Set the node up over SDO as the daemon does, then boot the controller.
+    fn new(config: &Config, mut sim: SimNode) -> Result<Self, SetupError> {
+        let layout = configure(
+            &mut SimBus {
+                sim: &mut sim,
+                answers: VecDeque::new(),
+            },
+            &config.axis[0],
+        )?;
+        let mut controller = ControllerNode::new(config).expect("controller");
+        controller.set_node_layout(0, &layout);
+        let mut rig = Self {
+            controller,
+            sim,
+            period_s: config.cycle.period_s,
+            k: 0,
+            sent: vec![],
+            bus: vec![],
+            records: vec![],
+        };
+        let mut out = vec![];
+        rig.controller.boot(&mut |f| out.push(*f), &mut |_| {});
+        rig.deliver(&out);
+        Ok(rig)
+    }
+
+    fn deliver(&mut self, frames: &[Frame]) -> Vec<Frame> {
+        let mut answers = Vec::new();
+        for f in frames {
+            self.sent.push((self.k, *f));
+            self.bus.push(*f);
+            self.sim.handle(f, &mut |a| answers.push(*a), &mut |_| {});
+        }
+        self.bus.extend(&answers);
+        answers
+    }
+
+    fn hand_to_controller(&mut self, frame: &Frame) {
+        let t = self.k as f64 * self.period_s;
+        self.controller.handle(frame, t, &mut |_| {});
+    }
+
+    fn cycle(&mut self) {
+        let t = self.k as f64 * self.period_s;
+        if self.k % ((0.1 / self.period_s).round() as u64) == 0 {
+            let hb = self.sim.heartbeat();
+            self.hand_to_controller(&hb);
+        }
+        self.controller.begin_cycle();
+        let sync = self.controller.sync_frame();
+        for a in self.deliver(&[sync]) {
+            self.hand_to_controller(&a);
+        }
+        let mut out = Vec::new();
+        let records = &mut self.records;
+        self.controller
+            .finish_cycle(t, CycleTiming::default(), &mut |f| out.push(*f), &mut |r| {
+                if let Record::Cycle(c) = r {
+                    records.push(c);
+                }
+            });
+        for a in self.deliver(&out) {
+            self.hand_to_controller(&a);
+        }
+        self.k += 1;
+    }
+
+    fn run(&mut self, seconds: f64) {
+        for _ in 0..(seconds / self.period_s).round() as u64 {
+            self.cycle();
+        }
+    }
+
+    /// Mean recorded position over [a, b) s.
+    fn mean_position(&self, a: f64, b: f64) -> f64 {
+        let v: Vec<f64> = self
+            .records
+            .iter()
+            .filter(|r| r.t_s >= a && r.t_s < b)
+            .map(|r| r.position)
+            .collect();
+        assert!(!v.is_empty(), "no records in [{a}, {b})");
+        v.iter().sum::<f64>() / v.len() as f64
+    }
+
+    fn emcys(&self) -> Vec<(u64, Emcy)> {
+        self.sent
+            .iter()
+            .filter(|(_, f)| f.id() == 0x081)
+            .map(|(k, f)| (*k, Emcy::decode(f).expect("EMCY decodes")))
+            .collect()
+    }
+}
+
+fn drive_config() -> Config {
+    Config::load(&root("config/cia402_linear_axis.toml")).expect("config")
+}
+
+#[test]
+fn a_cia402_drive_in_cst_closes_the_loop_with_the_intelligent_functions_on() {
+    let config = drive_config();
+    let a = &config.axis[0];
+    assert!(a.adaptive_friction.is_some() && a.observer.is_some() && a.schedule.is_some());
+    let node = sim(
+        Profile::Cia402,
+        "config/plants/linear_axis_drive.toml",
+        vec![],
+        config.cycle.period_s,
+    );
+    let mut rig = Rig::new(&config, node).expect("the drive takes its mapping");
+    rig.run(4.0);
+    let p = rig.sim.profile().expect("profile node");
+    assert_eq!(p.drive_state(), State::OperationEnabled);
+    for (until, target) in [(1.0, 0.0), (2.0, 0.02), (3.0, 0.0202), (4.0, -0.03)] {
+        let mean = rig.mean_position(until - 0.2, until);
+        eprintln!(
+            "cia402: setpoint {:.2} mm: position {:.4} mm",
+            target * 1e3,
+            mean * 1e3
+        );
+        // The axis sticks (breakaway 3 N against 2 N of Coulomb friction): it rests within a
+        // few tens of µm, where the friction compensation and the integrator leave it.
+        assert!((mean - target).abs() < 40e-6, "{target}: {mean}");
+    }
+    let last = rig.records.last().expect("records");
+    // The DC link voltage (6079h in TPDO2) is the axis' supply, and the schedule reads it.
+    assert!((last.supply_voltage - 24.0).abs() < 0.1, "{last:?}");
+    assert!((last.gain_schedule_factor - 1.0).abs() < 0.01);
+    assert_eq!(last.drive_statusword & 0x6F, 0x27, "operation enabled");
+    assert!(last.command_torque.abs() < 100.0 && last.command_voltage == 0.0);
+    // Nothing latched: no EMCY at all.
+    assert!(rig.emcys().is_empty(), "{:?}", rig.emcys());
+    // One command RPDO per cycle once operational, on RPDO1's COB-ID, 4 bytes as mapped.
+    let rpdos = rig.sent.iter().filter(|(_, f)| f.id() == 0x210).count();
+    assert_eq!(rpdos as u64, rig.k);
+    assert!(rig
+        .sent
+        .iter()
+        .filter(|(_, f)| f.id() == 0x210)
+        .all(|(_, f)| f.len() == 4));
+    // The configuration's DBC describes every frame on the bus, the drive's PDOs as mapped.
+    let text = actuatord::daemon::profile_dbc::render_config_dbc(&config).expect("dbc");
+    let dbc = can_dbc::Dbc::try_from(text.as_str()).expect("the DBC parses");
+    for f in &rig.bus {
+        let m = dbc
+            .messages
+            .iter()
+            .find(|m| m.id == can_dbc::MessageId::Standard(f.id() as u16))
+            .unwrap_or_else(|| panic!("frame {f} has no DBC message"));
+        assert_eq!(m.size as usize, f.len(), "frame {f} vs DBC {}", m.name);
+    }
+}
+
+#[test]
+fn a_drive_fault_is_the_axis_fault_with_the_drive_code_and_a_reset_brings_it_back() {
+    let config = drive_config();
+    let fault: DriveFault = "0x4310@1.5s".parse().expect("fault");
+    let node = sim(
+        Profile::Cia402,
+        "config/plants/linear_axis_drive.toml",
+        vec![fault],
+        config.cycle.period_s,
+    );
+    let mut rig = Rig::new(&config, node).expect("setup");
+    rig.run(2.0);
+    assert_eq!(rig.sim.profile().expect("p").drive_state(), State::Fault);
+    let emcys = rig.emcys();
+    let (k, emcy) = emcys.first().expect("an EMCY for the drive fault");
+    assert_eq!(emcy.error_code, 0x4310, "{emcy:?}");
+    assert!(emcy.flags.contains(FaultKind::NodeState));
+    // Raised within a few cycles of the fault (1.5 s = cycle 750).
+    let fault_cycle = (1.5 / config.cycle.period_s).round() as u64;
+    assert!(
+        (fault_cycle..fault_cycle + 5).contains(k),
+        "EMCY at cycle {k}"
+    );
+    // The reset: the fault_reset frame of the controller, as automation sends it.
+    let reset = FaultResetPdo { axis_node_id: 16 }.encode(1);
+    rig.hand_to_controller(&reset);
+    let reset_cycle = rig.k;
+    rig.run(1.5);
+    assert_eq!(
+        rig.sim.profile().expect("p").drive_state(),
+        State::OperationEnabled
+    );
+    // Through the state machine: fault reset (0x80) after a word with bit 7 low, then
+    // shutdown, switch on, enable operation.
+    let words: Vec<u16> = rig
+        .sent
+        .iter()
+        .filter(|(k, f)| *k + 1 >= reset_cycle && f.id() == 0x210)
+        .map(|(_, f)| u16::from_le_bytes([f.data()[0], f.data()[1]]))
+        .collect();
+    let mut changes: Vec<u16> = words.clone();
+    changes.dedup();
+    assert_eq!(
+        &changes[..5],
+        &[0x00, 0x80, 0x06, 0x07, 0x0F],
+        "{changes:x?}"
+    );
+    // An EMCY "error reset" followed, and no second drive fault.
+    let after: Vec<_> = rig
+        .emcys()
+        .into_iter()
+        .filter(|(k, _)| *k >= reset_cycle)
+        .collect();
+    assert_eq!(
+        after.first().map(|(_, e)| e.error_code),
+        Some(0),
+        "{after:?}"
+    );
+    assert!(
+        after.iter().all(|(_, e)| e.error_code != 0x4310),
+        "{after:?}"
+    );
+    let last = rig.records.last().expect("records");
+    assert_eq!(last.fault_state, 0, "{last:?}");
+    // Back on its setpoint (20.2 mm since 2 s of the schedule), ramped up from where the spring
+    // pulled it while the drive was off.
+    let mean = rig.mean_position(2.8, 3.0);
+    assert!((mean - 0.0202).abs() < 40e-6, "{mean}");
+}
+
+#[test]
+fn a_cia401_module_closes_the_loop_of_the_solenoid() {
+    let config = Config::load(&root("config/cia401_solenoid.toml")).expect("config");
+    let node = sim(
+        Profile::Cia401,
+        "config/plants/solenoid.toml",
+        vec![],
+        config.cycle.period_s,
+    );
+    let mut rig = Rig::new(&config, node).expect("the module takes its mapping");
+    rig.run(3.0);
+    for (until, target) in [(1.0, 0.005), (2.0, 0.010), (3.0, 0.0102)] {
+        let mean = rig.mean_position(until - 0.2, until);
+        eprintln!(
+            "cia401: setpoint {:.2} mm: position {:.4} mm",
+            target * 1e3,
+            mean * 1e3
+        );
+        assert!((mean - target).abs() < 25e-6, "{target}: {mean}");
+    }
+    let last = rig.records.last().expect("records");
+    assert!((last.supply_voltage - 24.0).abs() < 0.1, "{last:?}");
+    assert!(
+        last.current > 0.1,
+        "the coil current comes from analog input 2"
+    );
+    assert!((last.gain_schedule_factor - 1.0).abs() < 0.01);
+    // RPDO2 carries analog output 1 in mV: the command the controller recorded.
+    let (_, f) = rig
+        .sent
+        .iter()
+        .rev()
+        .find(|(_, f)| f.id() == 0x310)
+        .expect("RPDO2");
+    let mv = i16::from_le_bytes([f.data()[0], f.data()[1]]);
+    assert!((f64::from(mv) * 1e-3 - last.command_voltage).abs() < 1e-3);
+}
+
+#[test]
+fn a_refused_mapping_is_reported_by_object_and_abort_code() {
+    let text = std::fs::read_to_string(root("config/cia401_solenoid.toml"))
+        .expect("config")
+        .replace("position_input = 1\n", "position_input = 9\n");
+    let config = Config::from_toml(&text, Path::new("bad.toml")).expect("valid as a file");
+    let node = sim(
+        Profile::Cia401,
+        "config/plants/solenoid.toml",
+        vec![],
+        0.0025,
+    );
+    let e = Rig::new(&config, node)
+        .err()
+        .expect("analog input 9 does not exist");
+    let message = e.to_string();
+    eprintln!("{message}");
+    assert!(
+        message.contains("1A01:01")
+            && message.contains("TPDO2 (1801h/1A01h) mapping entry 1")
+            && message.contains("0x06040041"),
+        "{message}"
+    );
+    // The wrong device: a drive where a module is expected.
+    let node = sim(
+        Profile::Cia402,
+        "config/plants/linear_axis_drive.toml",
+        vec![],
+        0.0025,
+    );
+    let e = Rig::new(&config, node).err().expect("not a CiA 401 device");
+    assert!(e.to_string().contains("0x00020192"), "{e}");
+}
+
+#[test]
+fn a_mapping_from_the_eds_is_checked_on_the_node() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    // The simulated drive's own EDS: its factory mapping has no position actual value.
+    let eds = dir.path().join("drive.eds");
+    std::fs::copy(root("dbc/actuator-sim-cia402.eds"), &eds).expect("copy EDS");
+    let text = std::fs::read_to_string(root("config/cia402_linear_axis.toml"))
+        .expect("config")
+        .replace("[axis.cia402]\n", "eds = \"drive.eds\"\n\n[axis.cia402]\n");
+    let config_path = dir.path().join("drive.toml");
+    std::fs::write(&config_path, &text).expect("write");
+    let config = Config::load(&config_path).expect("config");
+    let node = sim(
+        Profile::Cia402,
+        "config/plants/linear_axis_drive.toml",
+        vec![],
+        0.002,
+    );
+    let e = Rig::new(&config, node)
+        .err()
+        .expect("factory mapping lacks 6064h");
+    assert!(
+        e.to_string().contains("no enabled RPDO maps 6071:00"),
+        "{e}"
+    );
+
+    // An EDS whose defaults are the layout the daemon would write: taken as it is, checked on
+    // the node by reading back, no writes. A node that has it passes; one that does not is
+    // named with the first entry that differs.
+    let mut configured = sim(
+        Profile::Cia402,
+        "config/plants/linear_axis_drive.toml",
+        vec![],
+        0.002,
+    );
+    configure(
+        &mut SimBus {
+            sim: &mut configured,
+            answers: VecDeque::new(),
+        },
+        &drive_config().axis[0],
+    )
+    .expect("daemon's layout");
+    let od = configured.profile().expect("p").dictionary().clone();
+    let mut od_eds = actuatord::canopen::render_eds(&od, &actuatord::canopen::EdsInfo::default());
+    // Defaults of an EDS are what the node starts with: write the configured values as such.
+    for e in od.entries() {
+        if (0x1400..=0x1BFF).contains(&e.id.index) {
+            let h = od.handle(e.id).expect("entry");
+            let section = format!("[{:04X}sub{:X}]", e.id.index, e.id.sub);
+            let start = od_eds.find(&section).expect("section");
+            let key = od_eds[start..].find("DefaultValue=").expect("default") + start;
+            let end = od_eds[key..].find("\r\n").expect("line end") + key;
+            od_eds.replace_range(key..end, &format!("DefaultValue={}", od.value(h)));
+        }
+    }
+    std::fs::write(&eds, &od_eds).expect("write EDS");
+    let rig = Rig::new(&config, configured).expect("the node has the EDS mapping");
+    assert_eq!(
+        rig.controller
+            .profile_link(0)
+            .map(|l| l.statusword().is_some()),
+        Some(true)
+    );
+    let fresh = sim(
+        Profile::Cia402,
+        "config/plants/linear_axis_drive.toml",
+        vec![],
+        0.002,
+    );
+    let e = Rig::new(&config, fresh)
+        .err()
+        .expect("factory mapping differs");
+    assert!(
+        matches!(e, SetupError::Mismatch { .. }) && e.to_string().contains("RPDO1"),
+        "{e}"
+    );
+}
+
+#[test]
+fn the_simulated_nodes_eds_files_are_what_the_sim_prints() {
+    for profile in ["cia402", "cia401"] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_actuator"))
+            .args(["sim", "--profile", profile, "--print-eds"])
+            .output()
+            .expect("actuator sim --print-eds");
+        assert!(out.status.success());
+        let file = std::fs::read(root(&format!("dbc/actuator-sim-{profile}.eds"))).expect("eds");
+        assert!(
+            out.stdout == file,
+            "dbc/actuator-sim-{profile}.eds is stale: regenerate it with actuator sim --profile {profile} --print-eds"
+        );
+    }
+}
+
+#[test]
+fn profile_keys_are_checked_with_their_file_and_key() {
+    let text = std::fs::read_to_string(root("config/cia402_linear_axis.toml")).expect("config");
+    for (from, to, key) in [
+        ("profile = \"cia402\"\n", "", "command"),
+        (
+            "command = \"torque\"\n",
+            "command = \"voltage\"\n",
+            "command",
+        ),
+        (
+            "position_m_per_inc = 1e-6\n",
+            "position_m_per_inc = 0.0\n",
+            "cia402.position_m_per_inc",
+        ),
+        (
+            "[axis.controller]\n",
+            "[axis.cia401]\nposition_input = 1\nposition_m_per_count = 1e-6\n\
+             command_output = 1\ncommand_per_count = 0.001\n\n[axis.controller]\n",
+            "cia401",
+        ),
+    ] {
+        assert!(text.contains(from), "{from}");
+        let e = Config::from_toml(&text.replace(from, to), Path::new("drive.toml"))
+            .err()
+            .unwrap_or_else(|| panic!("{from} -> {to} must be refused"));
+        let message = e.to_string();
+        assert!(
+            message.contains("drive.toml") && message.contains(key),
+            "{from} -> {to}: {message}"
+        );
+    }
+}
+
+#[test]
+fn a_cia402_drive_in_csv_follows_the_velocity_the_loop_commands() {
+    // The drive axis with a P position loop whose output is the target velocity (CSV, 60FFh):
+    // the drive's own velocity loop does the rest. The force-model sections do not apply.
+    let text = std::fs::read_to_string(root("config/cia402_linear_axis.toml")).expect("config");
+    let (head, tail) = text.split_at(text.find("[axis.controller]").expect("controller"));
+    let limits = tail.find("[axis.limits]").expect("limits");
+    let text = format!(
+        "{}[axis.controller]\n# v = 50 1/s x e, m/s.\nq_per_m = [50.0]\noutput_min = -0.5\noutput_max = 0.5\n\n{}",
+        head.replace("command = \"torque\"", "command = \"velocity\""),
+        &tail[limits..]
+    );
+    let config = Config::from_toml(&text, Path::new("csv.toml")).expect("CSV config");
+    let node = sim(
+        Profile::Cia402,
+        "config/plants/linear_axis_drive.toml",
+        vec![],
+        config.cycle.period_s,
+    );
+    let mut rig = Rig::new(&config, node).expect("setup");
+    rig.run(2.0);
+    assert_eq!(
+        rig.sim.profile().expect("p").drive_state(),
+        State::OperationEnabled
+    );
+    // RPDO1: controlword and the 32-bit target velocity in µm/s.
+    let (_, f) = rig
+        .sent
+        .iter()
+        .rev()
+        .find(|(_, f)| f.id() == 0x210)
+        .expect("RPDO1");
+    assert_eq!(f.len(), 6);
+    let last = rig.records.last().expect("records");
+    let v = i32::from_le_bytes([f.data()[2], f.data()[3], f.data()[4], f.data()[5]]);
+    assert!(
+        (f64::from(v) * 1e-6 - last.command_velocity).abs() < 2e-6,
+        "{v} vs {last:?}"
+    );
+    let mean = rig.mean_position(1.8, 2.0);
+    eprintln!("cia402 CSV: setpoint 20 mm: position {:.4} mm", mean * 1e3);
+    assert!((mean - 0.02).abs() < 40e-6, "{mean}");
+}
+
+#[test]
+fn a_drive_already_in_fault_at_start_up_is_named_by_its_error_code() {
+    let config = drive_config();
+    let fault: DriveFault = "0x7305@0s".parse().expect("fault");
+    let mut node = sim(
+        Profile::Cia402,
+        "config/plants/linear_axis_drive.toml",
+        vec![fault],
+        config.cycle.period_s,
+    );
+    // SYNCs from before the daemon: the drive faults and sends its EMCY to nobody.
+    let mut early = vec![];
+    for _ in 0..3 {
+        let sync = actuatord::canopen::SyncCounter::default().encode();
+        node.handle(&sync, &mut |f| early.push(*f), &mut |_| {});
+    }
+    assert!(early.iter().any(|f| f.id() == 0x090), "{early:?}");
+    assert_eq!(node.profile().expect("p").drive_state(), State::Fault);
+    let mut rig = Rig::new(&config, node).expect("setup reads 603Fh");
+    rig.run(0.3);
+    let emcys = rig.emcys();
+    let (_, e) = emcys.first().expect("the axis' fault");
+    assert_eq!(e.error_code, 0x7305, "{emcys:?}");
+    assert!(e.flags.contains(FaultKind::NodeState));
+}
