@@ -2,10 +2,11 @@
 //! in-process bus. A scripted run of setpoint steps and injected faults, then a short summary.
 
 use crate::bus::InProcBus;
-use crate::daemon::config::{Config, SetpointStep};
+use crate::daemon::config::SetpointStep;
 use crate::daemon::record::CycleRecord;
 use crate::daemon::recorder::{read_cycles, Recorder, RecorderError};
 use crate::daemon::{run_cycle, ControllerNode, CycleReport, CycleSettings};
+use crate::defaults::Source;
 use crate::physics::{PhysicsError, ScheduledFault};
 use crate::simnode::{run_sim_node, SimEvent, SimNode};
 use crate::supervise::{FaultFlags, FaultKind};
@@ -93,7 +94,23 @@ pub fn run(
     script: &Script,
     recording: &Path,
 ) -> Result<DemoSummary, DemoError> {
-    let mut config = Config::load(config_path)?;
+    run_from(
+        &Source::File(config_path.to_path_buf()),
+        &Source::File(plant_path.to_path_buf()),
+        script,
+        recording,
+    )
+}
+
+/// Run the script with a configuration and a plant from files or built in.
+pub fn run_from(
+    config_source: &Source,
+    plant_source: &Source,
+    script: &Script,
+    recording: &Path,
+) -> Result<DemoSummary, DemoError> {
+    let config_path = &PathBuf::from(config_source.name());
+    let mut config = config_source.config()?;
     config.cycle.realtime_priority = 0;
     config.cycle.lock_memory = false;
     let axis =
@@ -112,7 +129,7 @@ pub fn run(
     config.validate(config_path)?;
     let node_id = config.axis[0].actuator_node_id;
     let period_s = config.cycle.period_s;
-    let plant = crate::physics::load_plant(plant_path)?;
+    let plant = plant_source.plant()?;
     let mut sim = SimNode::new(node_id, plant, period_s, script.faults.clone());
     let mut controller = ControllerNode::new(&config)?;
 
