@@ -6,9 +6,11 @@
 //! - [`fault_table`]: the fault-symptom table of the parameter diagnosis, derived from
 //!   simulations of the solenoid with each fault (`actuator bench fault-table`).
 //! - [`rt`]: how well the real-time cycle keeps time, against a naive baseline.
+//! - [`supply`]: parameter scheduling on the measured supply against fixed gains.
 
 pub mod fault_table;
 pub mod paper;
 pub mod rt;
+pub mod supply;
 
 pub use paper::{run_paper_bench, PaperRow, PaperTable};

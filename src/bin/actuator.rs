@@ -176,6 +176,14 @@ enum BenchCommand {
         #[arg(long)]
         check: bool,
     },
+    /// Parameter scheduling on the measured supply against fixed gains: a PWM-driven linear
+    /// axis (12-34 V and a cranking dip) and the pneumatic drive (400-800 mbar), the daemon's
+    /// axis code in lock-step with the simulated plants.
+    Supply {
+        /// Print JSON (a list of rows) instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
     /// How the cycle keeps time: lateness histogram, deadline misses, latencies, compute per
     /// stage, against a naive tokio-interval loop doing the same work in the same run.
     Rt {
@@ -386,6 +394,17 @@ fn run(args: Args) -> anyhow::Result<()> {
                 println!("{}", serde_json::to_string_pretty(&rows)?);
             } else {
                 println!("{}", actuatord::bench::PaperTable(&rows));
+            }
+            Ok(())
+        }
+        Command::Bench {
+            what: BenchCommand::Supply { json },
+        } => {
+            let rows = actuatord::bench::supply::run_supply_bench()?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&rows)?);
+            } else {
+                print!("{}", actuatord::bench::supply::SupplyTable(&rows));
             }
             Ok(())
         }
