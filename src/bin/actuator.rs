@@ -76,6 +76,10 @@ enum Command {
         /// Where the MCAP recording goes.
         #[arg(long, default_value = "demo.mcap")]
         record: PathBuf,
+        /// Controller and simulated node frame by frame without clocks, as fast as the machine
+        /// goes (the same figures on any machine), instead of the real-time cycle.
+        #[arg(long)]
+        lockstep: bool,
     },
     /// Benchmarks: measurements printed beside their reference figures.
     Bench {
@@ -325,17 +329,23 @@ fn run(args: Args) -> anyhow::Result<()> {
             config,
             plant,
             record,
+            lockstep,
         } => {
             let script = actuatord::demo::Script::standard()?;
             eprintln!(
                 "actuator demo: {:.1} s of closed-loop control at 400 Hz on the in-process bus ...",
                 script.duration_s
             );
-            let summary = actuatord::demo::run_from(
+            let summary = actuatord::demo::run_with(
                 &Source::or_builtin(config, defaults::config(Family::Solenoid)),
                 &Source::or_builtin(plant, defaults::plant(Family::Solenoid)),
                 &script,
                 &record,
+                if lockstep {
+                    actuatord::demo::Clock::LockStep
+                } else {
+                    actuatord::demo::Clock::RealTime
+                },
             )?;
             println!("{summary}");
             Ok(())
