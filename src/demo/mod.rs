@@ -673,7 +673,7 @@ impl std::fmt::Display for DemoSummary {
         )?;
         writeln!(
             f,
-            "  2 friction x3 at {FRICTION_AT_S} s: the observer flags it {}; steady error {:.1} µm on the first step, {:.1} µm once the compensation adapted ({:.2}x nominal); compensation up/down {:.3}/{:.3} V -> {:.3}/{:.3} V",
+            "  2 friction x3 at {FRICTION_AT_S} s: the observer flags it {}; steady error {:.1} µm on the first step, {:.1} µm on the last two before the dip ({:.2}x nominal); adapted compensation up/down {:.3}/{:.3} V -> {:.3}/{:.3} V",
             p.observer_flag_delay_s
                 .map_or("never".to_string(), |t| format!("{:.2} s after", t)),
             um(p.friction_error_before_m),
