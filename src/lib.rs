@@ -9,6 +9,7 @@
 //! - [`simnode`]: a simulated actuator node speaking the protocol.
 //! - [`daemon`]: the real-time cycle, configuration, recording.
 //! - [`lab`]: comparing models with measurements.
+//! - [`defaults`]: the reference configurations and plant files, built in.
 
 pub mod bench;
 pub mod bus;
@@ -16,6 +17,7 @@ pub mod canopen;
 pub mod client;
 pub mod control;
 pub mod daemon;
+pub mod defaults;
 pub mod demo;
 pub mod design;
 pub mod ident;

@@ -1,47 +1,172 @@
 //! The README's first command: the scripted demo on the in-process bus, as a user runs it.
 
-use actuatord::demo::{run, Script};
+use actuatord::daemon::recorder::read_cycles;
+use actuatord::defaults::{self, Source};
+use actuatord::demo::{run_with, Clock, Script, DIP_END_S, FAULT_AT_S, FRICTION_AT_S};
+use actuatord::physics::Family;
 use actuatord::supervise::FaultKind;
-use std::path::Path;
 
 #[test]
-fn the_demo_tracks_its_steps_and_raises_the_supply_fault() {
+fn the_demo_tells_its_story_in_lockstep_from_any_directory() {
     let dir = tempfile::tempdir().expect("tempdir");
+    // As a user runs it, in a folder without the sources: the built-in configuration and
+    // plant, the recording written there.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .current_dir(dir.path())
+        .args(["demo", "--lockstep"])
+        .output()
+        .expect("actuator runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    println!("{text}");
     let recording = dir.path().join("demo.mcap");
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let cycles = read_cycles(&recording).expect("demo.mcap written and readable");
+    assert!(text.contains("the story, phase by phase"), "{text}");
+
+    // The same run through the library, for its figures.
     let script = Script::standard().expect("script");
-    let summary = run(
-        &root.join("config/solenoid.toml"),
-        &root.join("config/plants/solenoid.toml"),
+    let again = dir.path().join("again.mcap");
+    let s = run_with(
+        &Source::Builtin(defaults::config(Family::Solenoid)),
+        &Source::Builtin(defaults::plant(Family::Solenoid)),
         &script,
-        &recording,
+        &again,
+        Clock::LockStep,
     )
     .expect("demo runs");
-    println!("{summary}");
-    assert_eq!(summary.steps.len(), script.setpoints.len());
-    // Before any fault every step settles to within a few sensor quanta of friction stick.
-    for s in &summary.steps[..5] {
+    assert_eq!(s.records_dropped, 0);
+    assert_eq!(
+        s.cycle.cycles as usize,
+        cycles.len(),
+        "every cycle recorded"
+    );
+    assert_eq!(s.steps.len(), script.setpoints.len());
+    assert_eq!(s.injected.len(), script.faults.len());
+    let p = &s.phases;
+
+    // 1. Nominal: every step settles to within a few sensor quanta (1 µm), no fault.
+    for st in s.steps.iter().filter(|st| st.at_s < FRICTION_AT_S) {
+        assert!(st.steady_state_error_m.abs() < 5e-6, "{st:?}");
         assert!(
-            s.steady_state_error_m.abs() < 30e-6,
-            "step to {} m: {} m",
-            s.to_m,
-            s.steady_state_error_m
+            st.settling_time_s.is_some() && st.faults.is_empty(),
+            "{st:?}"
         );
-        assert!(s.faults.is_empty());
     }
-    assert_eq!(summary.injected.len(), 2);
-    let (_, raised_cycle, _) = summary
-        .faults_raised
+
+    // 2. Friction x3: the limit checks see nothing, the observer flags it, the axis keeps
+    // working (maintenance requested, no safe state).
+    let flagged = p
+        .observer_flag_delay_s
+        .expect("the observer flags the friction");
+    assert!(
+        flagged > 0.0 && FRICTION_AT_S + flagged < FAULT_AT_S,
+        "{flagged}"
+    );
+    for st in s.steps.iter().filter(|st| st.at_s < FAULT_AT_S) {
+        assert!(st.faults.is_empty(), "{st:?}");
+    }
+
+    // 3. The dip: 16.8 V measured (24 V x 0.7), gains x24/16.8, the warning EMCY (mains
+    // under-voltage) once, no safe state; the small steps settle as before the dip.
+    assert!(
+        (16.6..17.0).contains(&p.dip_supply_min),
+        "{}",
+        p.dip_supply_min
+    );
+    assert!(
+        (p.dip_gain_factor_max - 24.0 / 16.8).abs() < 0.05,
+        "{}",
+        p.dip_gain_factor_max
+    );
+    let (code, after) = p.dip_warning.expect("a warning EMCY in the dip");
+    assert_eq!(code, 0x3120);
+    assert!(after < 0.05, "{after}");
+    assert!(!p.dip_safe_state);
+    let quantum = 1e-6;
+    assert!(
+        p.dip_error_m <= 1.25 * p.pre_dip_error_m + quantum,
+        "{} vs {}",
+        p.dip_error_m,
+        p.pre_dip_error_m
+    );
+    assert!(
+        p.dip_settling_s <= 1.25 * p.pre_dip_settling_s,
+        "{} vs {}",
+        p.dip_settling_s,
+        p.pre_dip_settling_s
+    );
+    // The warning ends with the dip: an "error reset" EMCY after it, before the real fault.
+    assert!(s
+        .emcys
         .iter()
-        .find(|(_, _, k)| *k == FaultKind::SupplyVoltage)
-        .copied()
-        .expect("the supply drop is detected");
-    // Counted in SYNCs, which is what both nodes share whatever the machine's load: the
-    // persistence is 4 cycles; a few missed sensor frames may add to it.
-    let injected_sync = summary.injected[1].1;
-    let latency = raised_cycle
-        .checked_sub(injected_sync)
-        .expect("raised after the injection, not before");
-    assert!((3..=12).contains(&latency), "latency {latency} periods");
-    assert!(std::fs::metadata(&recording).map(|m| m.len()).unwrap_or(0) > 100_000);
+        .any(|(t, code, _)| *code == 0 && *t >= DIP_END_S && *t < FAULT_AT_S));
+
+    // 4. The real fault: the supply limit latches within its persistence (4 periods of 2.5 ms,
+    // a few more for noise), and the axis is in its safe state.
+    let (kind, after) = p.fault.expect("the supply collapse is detected");
+    assert_eq!(kind, FaultKind::SupplyVoltage);
+    assert!((0.0075..0.03).contains(&after), "{after}");
+    assert!(p.safe_state_after_s.is_some());
+
+    // No step's row carries a fault raised after it settled.
+    for st in &s.steps {
+        let Some(settle) = st.settling_time_s else {
+            continue;
+        };
+        for k in st.faults.iter() {
+            let raised = s
+                .faults_raised
+                .iter()
+                .filter(|(_, _, kind)| *kind == k)
+                .map(|(t, _, _)| *t)
+                .fold(f64::INFINITY, f64::min);
+            assert!(raised <= st.at_s + settle, "{st:?}: {k} at {raised}");
+        }
+    }
+    // The step after the collapse never settles and carries the fault that stopped it.
+    let last = s.steps.last().expect("steps");
+    assert!(last.settling_time_s.is_none());
+    assert!(last.faults.contains(FaultKind::SupplyVoltage), "{last:?}");
+}
+
+/// The built-in configurations and plant files: `actuator sim --family F` runs in a folder with
+/// no `config/` in sight, as after `cargo install`; a file named on the command line still wins.
+#[test]
+fn sim_runs_from_any_directory_on_the_built_in_files_and_a_named_file_wins() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for family in ["motor_gear", "linear_axis", "pneumatic", "solenoid"] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_actuator"))
+            .current_dir(dir.path())
+            .args([
+                "sim",
+                "--family",
+                family,
+                "--record",
+                "run.csv",
+                "--seconds",
+                "0.5",
+            ])
+            .output()
+            .expect("actuator runs");
+        assert!(
+            out.status.success(),
+            "{family}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let csv = std::fs::read_to_string(dir.path().join("run.csv")).expect("csv written");
+        assert!(csv.lines().count() > 10, "{family}: {csv}");
+    }
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .current_dir(dir.path())
+        .args(["sim", "--family", "motor_gear", "--plant", "mine.toml"])
+        .args(["--record", "run.csv", "--seconds", "0.5"])
+        .output()
+        .expect("actuator runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.contains("mine.toml: cannot read"), "{err}");
 }

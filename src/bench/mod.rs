@@ -8,10 +8,12 @@
 //! - [`rt`]: how well the real-time cycle keeps time, against a naive baseline.
 //! - [`soak`]: the daemon and a simulated node as processes for minutes of floods, outages,
 //!   reloads, SDO writes and stalls: crashes, memory, periods, faults and records.
+//! - [`supply`]: parameter scheduling on the measured supply against fixed gains.
 
 pub mod fault_table;
 pub mod paper;
 pub mod rt;
 pub mod soak;
+pub mod supply;
 
 pub use paper::{run_paper_bench, PaperRow, PaperTable};

@@ -3,8 +3,9 @@
 use actuatord::bench::rt::{Load, RtBenchOptions};
 use actuatord::bus::SocketCanBus;
 use actuatord::daemon::Config;
+use actuatord::defaults::{self, Source};
 use actuatord::lockstep::{write_csv, LockStep};
-use actuatord::physics::{CommandUnit, ScheduledFault};
+use actuatord::physics::{CommandUnit, Family, ScheduledFault};
 use actuatord::simnode::{run_sim_node, SimEvent, SimNode};
 use clap::{Parser, Subcommand};
 use std::path::{Path, PathBuf};
@@ -32,13 +33,14 @@ enum Command {
         #[arg(long, default_value = "vcan0")]
         iface: String,
         /// Plant family; shorthand for --plant config/plants/FAMILY.toml (and, offline,
-        /// --config config/FAMILY.toml).
+        /// --config config/FAMILY.toml), both built in.
         #[arg(long)]
         family: Option<actuatord::physics::Family>,
-        /// Plant file (TOML); default config/plants/solenoid.toml.
+        /// Plant file (TOML); default config/plants/solenoid.toml, built in.
         #[arg(long)]
         plant: Option<PathBuf>,
-        /// Controller configuration for the offline run (--record).
+        /// Controller configuration for the offline run (--record); default: the family's,
+        /// built in.
         #[arg(long)]
         config: Option<PathBuf>,
         #[arg(long, default_value_t = 16)]
@@ -77,13 +79,19 @@ enum Command {
     },
     /// Daemon and simulated solenoid in one process: no CAN hardware, no root.
     Demo {
-        #[arg(long, default_value = "config/solenoid.toml")]
-        config: PathBuf,
-        #[arg(long, default_value = "config/plants/solenoid.toml")]
-        plant: PathBuf,
+        /// Controller configuration; default: config/solenoid.toml, built in.
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Plant file; default: config/plants/solenoid.toml, built in.
+        #[arg(long)]
+        plant: Option<PathBuf>,
         /// Where the MCAP recording goes.
         #[arg(long, default_value = "demo.mcap")]
         record: PathBuf,
+        /// Controller and simulated node frame by frame without clocks, as fast as the machine
+        /// goes (the same figures on any machine), instead of the real-time cycle.
+        #[arg(long)]
+        lockstep: bool,
     },
     /// Benchmarks: measurements printed beside their reference figures.
     Bench {
@@ -125,8 +133,9 @@ enum Command {
     },
     /// Print the EDS (CiA 306) of a configuration's object dictionary.
     Eds {
-        #[arg(long, default_value = "config/solenoid.toml")]
-        config: PathBuf,
+        /// Default: config/solenoid.toml, built in.
+        #[arg(long)]
+        config: Option<PathBuf>,
     },
     /// Print the DBC of the protocol for the given node ids (dbc/actuatord.dbc is 1 and 16).
     Dbc {
@@ -206,6 +215,14 @@ enum BenchCommand {
         #[arg(long)]
         out: Option<PathBuf>,
         /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Parameter scheduling on the measured supply against fixed gains: a PWM-driven linear
+    /// axis (12-34 V and a cranking dip) and the pneumatic drive (400-800 mbar), the daemon's
+    /// axis code in lock-step with the simulated plants.
+    Supply {
+        /// Print JSON (a list of rows) instead of a table.
         #[arg(long)]
         json: bool,
     },
@@ -311,17 +328,16 @@ fn run(args: Args) -> anyhow::Result<()> {
                 drive_faults.is_empty() || profile == Some(actuatord::simnode::Profile::Cia402),
                 "--drive-fault needs --profile cia402"
             );
-            let family_name = family.map_or("solenoid", |f| f.name());
-            let plant =
-                plant.unwrap_or_else(|| PathBuf::from(format!("config/plants/{family_name}.toml")));
-            let spec = actuatord::physics::load_spec(&plant)?;
+            let family = family.unwrap_or(actuatord::physics::Family::Solenoid);
+            let plant = Source::or_builtin(plant, defaults::plant(family));
+            let spec = plant.plant_spec()?;
             anyhow::ensure!(
                 profile.is_some() || matches!(spec.command, CommandUnit::Volt | CommandUnit::Duty),
                 "{}: command {:?} cannot be carried by the command frame (voltage or duty); set command = \"voltage\"",
-                plant.display(),
+                plant.name(),
                 spec.command
             );
-            let model = spec.build_named(&plant.display().to_string())?;
+            let model = spec.build_named(&plant.name())?;
             if let Some(profile) = profile {
                 let drive = profile == actuatord::simnode::Profile::Cia402;
                 let takes_force =
@@ -329,14 +345,13 @@ fn run(args: Args) -> anyhow::Result<()> {
                 anyhow::ensure!(
                     drive == takes_force,
                     "{}: command {:?} does not fit --profile {profile}: a cia402 drive applies force or torque (command = \"force\" or \"torque\"), a cia401 module outputs voltage or duty",
-                    plant.display(),
+                    plant.name(),
                     spec.command
                 );
                 anyhow::ensure!(record.is_none(), "--record runs offline without a profile");
             }
             if let Some(csv) = record {
-                let config =
-                    config.unwrap_or_else(|| PathBuf::from(format!("config/{family_name}.toml")));
+                let config = Source::or_builtin(config, defaults::config(family));
                 return sim_offline(&config, model, faults, &csv, seconds);
             }
             anyhow::ensure!(
@@ -407,13 +422,24 @@ fn run(args: Args) -> anyhow::Result<()> {
             config,
             plant,
             record,
+            lockstep,
         } => {
             let script = actuatord::demo::Script::standard()?;
             eprintln!(
                 "actuator demo: {:.1} s of closed-loop control at 400 Hz on the in-process bus ...",
                 script.duration_s
             );
-            let summary = actuatord::demo::run(&config, &plant, &script, &record)?;
+            let summary = actuatord::demo::run_with(
+                &Source::or_builtin(config, defaults::config(Family::Solenoid)),
+                &Source::or_builtin(plant, defaults::plant(Family::Solenoid)),
+                &script,
+                &record,
+                if lockstep {
+                    actuatord::demo::Clock::LockStep
+                } else {
+                    actuatord::demo::Clock::RealTime
+                },
+            )?;
             println!("{summary}");
             Ok(())
         }
@@ -431,7 +457,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             actuator_node,
         } => decode(&log, controller_node, actuator_node),
         Command::Eds { config } => {
-            let c = Config::load(&config)?;
+            let c = Source::or_builtin(config, defaults::config(Family::Solenoid)).config()?;
             let od = actuatord::daemon::dictionary::build(&c)?;
             print!(
                 "{}",
@@ -471,6 +497,17 @@ fn run(args: Args) -> anyhow::Result<()> {
                 println!("{}", serde_json::to_string_pretty(&rows)?);
             } else {
                 println!("{}", actuatord::bench::PaperTable(&rows));
+            }
+            Ok(())
+        }
+        Command::Bench {
+            what: BenchCommand::Supply { json },
+        } => {
+            let rows = actuatord::bench::supply::run_supply_bench()?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&rows)?);
+            } else {
+                print!("{}", actuatord::bench::supply::SupplyTable(&rows));
             }
             Ok(())
         }
@@ -664,19 +701,19 @@ fn sdo(iface: &str, node: u8, config: &Path, timeout_s: f64, op: SdoOp) -> anyho
 
 /// Offline closed loop: the controller of `config` against `plant`, written as CSV.
 fn sim_offline(
-    config_path: &Path,
+    config_source: &Source,
     plant: Box<dyn actuatord::physics::Plant>,
     faults: Vec<ScheduledFault>,
     csv: &Path,
     seconds: f64,
 ) -> anyhow::Result<()> {
     anyhow::ensure!(seconds > 0.0, "--seconds must be > 0, got {seconds}");
-    let config = Config::load(config_path)?;
+    let config = config_source.config()?;
     let command = config
         .axis
         .first()
         .map(|a| a.command)
-        .ok_or_else(|| anyhow::anyhow!("{}: no [[axis]]", config_path.display()))?;
+        .ok_or_else(|| anyhow::anyhow!("{}: no [[axis]]", config_source.name()))?;
     let pressure = plant.family() == actuatord::physics::Family::Pneumatic;
     let mut rig = LockStep::new(&config, plant, faults)?;
     let mut samples = Vec::with_capacity((seconds / config.cycle.period_s) as usize + 1);

@@ -41,6 +41,32 @@ pub fn supervised_error_code(fault: SupervisedFault) -> u16 {
     }
 }
 
+/// The error code of a warning for a supply outside its scheduled band (the loop goes on):
+/// CiA 301 "mains under-voltage" / "mains over-voltage" for a voltage, manufacturer-specific
+/// for a pressure. `low` is true below the band.
+pub fn supply_band_code(pressure: bool, low: bool) -> u16 {
+    match (pressure, low) {
+        (false, true) => 0x3120,
+        (false, false) => 0x3110,
+        (true, true) => 0xFF02,
+        (true, false) => 0xFF03,
+    }
+}
+
+impl Emcy {
+    /// The EMCY warning that the supply left its scheduled band while `flags` are active.
+    pub fn supply_band(axis_node_id: u8, pressure: bool, low: bool, flags: FaultFlags) -> Self {
+        Self {
+            error_code: supply_band_code(pressure, low),
+            // Generic error, plus "voltage" (bit 2) for a voltage supply.
+            error_register: error_register(flags) | if pressure { 0x01 } else { 0x05 },
+            axis_node_id,
+            flags,
+            ..Default::default()
+        }
+    }
+}
+
 /// CiA 301 error register (object 1001h) bits for a set of faults.
 pub fn error_register(flags: FaultFlags) -> u8 {
     if flags.is_empty() {

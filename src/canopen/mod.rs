@@ -21,7 +21,9 @@ mod signal;
 pub use codec::{check_length, pack, unpack, DecodeError};
 pub use decode::{decode_frame, DecodedSignal};
 pub use eds::{render_eds, EdsInfo};
-pub use emcy::{error_code, error_register, supervised_error_code, Emcy, ERROR_RESET};
+pub use emcy::{
+    error_code, error_register, supervised_error_code, supply_band_code, Emcy, ERROR_RESET,
+};
 pub use messages::{Message, FAULT_FLAG_NAMES, SUPERVISED_FLAG_NAMES, SYMPTOM_NAMES};
 pub use nmt::{
     decode_heartbeat, decode_sync, encode_heartbeat, is_heartbeat, NmtCommand, NmtState,

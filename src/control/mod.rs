@@ -33,5 +33,5 @@ pub use learned_table::{
 pub use linear::LinearController;
 pub use nonlinear_correction::{NonlinearCorrection, NonlinearCorrectionConfig};
 pub use param_error::ParamError;
-pub use scheduling::{GainSchedule, SchedulePoint, MAX_SCHEDULED};
+pub use scheduling::{BandStatus, GainSchedule, SchedulePoint, SupplyBand, MAX_SCHEDULED};
 pub use state_feedback::{StateFeedback, MAX_STATES};

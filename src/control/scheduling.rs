@@ -120,9 +120,110 @@ impl GainSchedule {
     }
 }
 
+/// Where the measured supply lies against the band the schedule is made for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum BandStatus {
+    #[default]
+    Inside,
+    /// Below the band for at least the persistence time.
+    Below,
+    /// Above the band for at least the persistence time.
+    Above,
+}
+
+/// The scheduled band of the supply: inside it the schedule holds the loop's behaviour; outside
+/// it (a cranking dip, a load-dump surge) the loop goes on with the schedule's gains and command
+/// limits, but the axis warns, because the plant is where its tests did not reach. The band is
+/// left after `persistence_cycles` readings outside it and re-entered at the first reading inside
+/// (a warning must not flicker off and on again in noise, and must not linger once the supply is
+/// back). Allocation-free.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SupplyBand {
+    low: f64,
+    high: f64,
+    persistence_cycles: u32,
+    count: u32,
+    status: BandStatus,
+}
+
+impl SupplyBand {
+    /// `low < high`, both finite; `persistence_cycles` at least 1.
+    pub fn new(low: f64, high: f64, persistence_cycles: u32) -> Result<Self, ParamError> {
+        finite("low", low)?;
+        finite("high", high)?;
+        if low >= high {
+            return Err(ParamError::new(
+                "high",
+                format!("must be above low ({low}), got {high}"),
+            ));
+        }
+        Ok(Self {
+            low,
+            high,
+            persistence_cycles: persistence_cycles.max(1),
+            count: 0,
+            status: BandStatus::Inside,
+        })
+    }
+
+    /// One fresh reading of the supply; a non-finite reading changes nothing.
+    pub fn step(&mut self, supply: f64) -> BandStatus {
+        if !supply.is_finite() {
+            return self.status;
+        }
+        let outside = if supply < self.low {
+            BandStatus::Below
+        } else if supply > self.high {
+            BandStatus::Above
+        } else {
+            BandStatus::Inside
+        };
+        if outside == BandStatus::Inside {
+            self.count = 0;
+            self.status = BandStatus::Inside;
+        } else {
+            self.count = self.count.saturating_add(1);
+            if self.count >= self.persistence_cycles {
+                self.status = outside;
+            }
+        }
+        self.status
+    }
+
+    pub fn status(&self) -> BandStatus {
+        self.status
+    }
+
+    /// `(low, high)`.
+    pub fn band(&self) -> (f64, f64) {
+        (self.low, self.high)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_band_is_left_after_its_persistence_and_reentered_at_once() {
+        let mut b = SupplyBand::new(18.0, 32.0, 3).expect("band");
+        assert_eq!(b.step(24.0), BandStatus::Inside);
+        assert_eq!(b.step(12.0), BandStatus::Inside);
+        assert_eq!(b.step(12.0), BandStatus::Inside);
+        assert_eq!(b.step(12.0), BandStatus::Below);
+        assert_eq!(b.step(f64::NAN), BandStatus::Below);
+        assert_eq!(b.step(18.0), BandStatus::Inside);
+        for _ in 0..2 {
+            assert_eq!(b.step(36.0), BandStatus::Inside);
+        }
+        // A single reading inside restarts the count.
+        assert_eq!(b.step(30.0), BandStatus::Inside);
+        assert_eq!(b.step(36.0), BandStatus::Inside);
+        assert_eq!(b.step(36.0), BandStatus::Inside);
+        assert_eq!(b.step(36.0), BandStatus::Above);
+        assert!(SupplyBand::new(32.0, 18.0, 1).is_err());
+        assert!(SupplyBand::new(f64::NAN, 18.0, 1).is_err());
+    }
 
     fn table() -> GainSchedule {
         GainSchedule::new(&[

@@ -13,9 +13,9 @@ use crate::canopen::{
 };
 use crate::control::robust::StateSpaceController;
 use crate::control::{
-    AdaptiveFriction, ControllerError, DiscreteController, Dither, FrictionFeedForward,
+    AdaptiveFriction, BandStatus, ControllerError, DiscreteController, Dither, FrictionFeedForward,
     GainSchedule, GainSource, LearnedTable, LinearController, NonlinearCorrection, OperatingPoint,
-    ParamError, PneumaticAdaptive, PneumaticStep,
+    ParamError, PneumaticAdaptive, PneumaticStep, SupplyBand,
 };
 use crate::supervise::{
     diagnose, symptoms, Band, DiagnosedFault, DisturbanceObserver, EstimatorHealth, FaultMachine,
@@ -103,6 +103,8 @@ pub struct AxisStep {
     pub supervision: SupervisionOutput,
     pub model: ModelSupervision,
     pub tuned: Tuned,
+    /// The measured supply against the scheduled band (inside without one).
+    pub supply_band: BandStatus,
 }
 
 impl AxisStep {
@@ -283,6 +285,10 @@ pub struct Axis {
     machine: FaultMachine,
     model: ModelSupervision,
     gain_factor: f64,
+    /// Share of the output limits the supply allows (the schedule's `command_limit_factor`).
+    command_limit_factor: f64,
+    /// The scheduled band of the measured supply and what it reads.
+    supply_band: Option<(ScheduleVariable, SupplyBand)>,
     supervisor: LimitSupervisor,
     travel: (f64, f64),
     setpoint: f64,
@@ -399,6 +405,33 @@ impl Axis {
             (Err(_), _) => return Err(ControllerError::NotFinite("schedule")),
             _ => None,
         };
+        let scheduled_band = |lo: Option<f64>, hi: Option<f64>| {
+            if lo.is_none() && hi.is_none() {
+                return Ok(None);
+            }
+            SupplyBand::new(
+                lo.unwrap_or(f64::MIN),
+                hi.unwrap_or(f64::MAX),
+                cycles(l.supply_time_s, period_s),
+            )
+            .map(Some)
+        };
+        let supply_band = match (
+            scheduled_band(
+                l.supply_voltage_scheduled_min_v,
+                l.supply_voltage_scheduled_max_v,
+            )
+            .map_err(unvalidated)?,
+            scheduled_band(
+                l.supply_pressure_scheduled_min_pa,
+                l.supply_pressure_scheduled_max_pa,
+            )
+            .map_err(unvalidated)?,
+        ) {
+            (Some(b), _) => Some((ScheduleVariable::SupplyVoltage, b)),
+            (None, Some(b)) => Some((ScheduleVariable::SupplyPressure, b)),
+            (None, None) => None,
+        };
         let pneumatic = match cfg.pneumatic_config(period_s) {
             Ok(Some(c)) => Some(PneumaticAdaptive::new(&c).map_err(unvalidated)?),
             Ok(None) => None,
@@ -466,6 +499,8 @@ impl Axis {
                 ..Default::default()
             },
             gain_factor: 1.0,
+            command_limit_factor: 1.0,
+            supply_band,
             supervisor: LimitSupervisor::new(limits),
             travel: (
                 l.position_min_m.unwrap_or(f64::NEG_INFINITY),
@@ -679,10 +714,18 @@ impl Axis {
                 ScheduleVariable::SupplyVoltage => self.sensor.supply_voltage_v,
                 ScheduleVariable::SupplyPressure => self.supply_pressure_pa,
             };
-            // A lost reading keeps the last factor (the schedule ignores non-finite input).
-            if let Some(&factor) = schedule.step(supply).first() {
+            // A lost reading keeps the last factors (the schedule ignores non-finite input).
+            let out = schedule.step(supply);
+            if let Some(&factor) = out.first() {
                 self.gain_factor = factor;
             }
+            self.command_limit_factor = out.get(1).copied().unwrap_or(1.0);
+        }
+        if let (Some((variable, band)), true) = (self.supply_band.as_mut(), self.fresh) {
+            band.step(match variable {
+                ScheduleVariable::SupplyVoltage => self.sensor.supply_voltage_v,
+                ScheduleVariable::SupplyPressure => self.supply_pressure_pa,
+            });
         }
     }
 
@@ -776,7 +819,14 @@ impl Axis {
         // The published state: the fault machine's decision, at least "warning" while a limit
         // is exceeded but not yet latched.
         let mut state = state_of(machine.level);
-        if !limits.pending.is_empty() && state.severity() < FaultState::Warning.severity() {
+        // Outside the scheduled band of the supply the loop goes on, and says so.
+        let off_band = self
+            .supply_band
+            .as_ref()
+            .is_some_and(|(_, b)| b.status() != BandStatus::Inside);
+        if (off_band || !limits.pending.is_empty())
+            && state.severity() < FaultState::Warning.severity()
+        {
             state = FaultState::Warning;
         }
         limits.state = state;
@@ -836,7 +886,12 @@ impl Axis {
                     .map_or(0.0, |d| d.step(self.reference, y));
                 let u_c = self.controller.propose(e_scaled);
                 let u_corr = self.correction.as_mut().map_or(u_c, |c| c.step(u_c, y));
+                // The limits the supply allows: u_max(V) = f_l(V) u_max (schedule).
                 let (lo, hi) = self.controller.limits();
+                let (lo, hi) = (
+                    lo * self.command_limit_factor,
+                    hi * self.command_limit_factor,
+                );
                 let u = (u_corr + comp + dither).clamp(lo, hi);
                 // The controller's own share of what was applied, back through the correction's
                 // gain: feeding it back is the anti-windup.
@@ -885,7 +940,19 @@ impl Axis {
             supervision,
             model: self.model,
             tuned,
+            supply_band: self
+                .supply_band
+                .as_ref()
+                .map_or(BandStatus::Inside, |(_, b)| b.status()),
         }
+    }
+
+    /// The scheduled band watches the supply pressure (else the supply voltage).
+    pub fn supply_band_is_pressure(&self) -> bool {
+        matches!(
+            self.supply_band,
+            Some((ScheduleVariable::SupplyPressure, _))
+        )
     }
 
     /// The command for leaving operation: the safe value.

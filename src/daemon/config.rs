@@ -399,6 +399,9 @@ pub struct ScheduleSection {
     pub supply_voltage_v: Option<Vec<f64>>,
     pub supply_pressure_pa: Option<Vec<f64>>,
     pub gain_factor: Option<Vec<f64>>,
+    /// With `gain_factor`: the share of `output_min`/`output_max` the supply allows, in (0, 1]
+    /// (a PWM stage at a surge would put more than the drive's rated voltage on it); 1 when absent.
+    pub command_limit_factor: Option<Vec<f64>>,
     pub drive_gain_down_m_per_s: Option<Vec<f64>>,
     pub drive_gain_up_m_per_s: Option<Vec<f64>>,
     /// `r` of the cost `Σ e² + r U²`, m² per duty².
@@ -606,6 +609,13 @@ pub struct LimitsConfig {
     pub supply_voltage_max_v: Option<f64>,
     pub supply_pressure_min_pa: Option<f64>,
     pub supply_pressure_max_pa: Option<f64>,
+    /// The scheduled band, inside the band above: outside it the axis warns (EMCY, fault
+    /// state `warning`) and goes on with the schedule's gains and command limits.
+    pub supply_voltage_scheduled_min_v: Option<f64>,
+    pub supply_voltage_scheduled_max_v: Option<f64>,
+    pub supply_pressure_scheduled_min_pa: Option<f64>,
+    pub supply_pressure_scheduled_max_pa: Option<f64>,
+    /// Persistence of the supply checks, hard band and scheduled band alike.
     #[serde(default = "default_short_time")]
     pub supply_time_s: f64,
     /// Time without sensor frames before `sensor_timeout` latches.
@@ -890,6 +900,18 @@ impl Config {
                     "limits.supply_pressure_max_pa",
                     l.supply_pressure_max_pa,
                 ),
+                (
+                    "limits.supply_voltage_scheduled_min_v",
+                    l.supply_voltage_scheduled_min_v,
+                    "limits.supply_voltage_scheduled_max_v",
+                    l.supply_voltage_scheduled_max_v,
+                ),
+                (
+                    "limits.supply_pressure_scheduled_min_pa",
+                    l.supply_pressure_scheduled_min_pa,
+                    "limits.supply_pressure_scheduled_max_pa",
+                    l.supply_pressure_scheduled_max_pa,
+                ),
             ] {
                 if let (Some(lo), Some(hi)) = (lo, hi) {
                     if lo >= hi {
@@ -901,6 +923,49 @@ impl Config {
                             ),
                         ));
                     }
+                }
+            }
+            // The scheduled band lies inside the hard band: past the hard band the axis is in
+            // its safe state, and a warning band reaching beyond it would never be seen.
+            for (key, v, lo, hi) in [
+                (
+                    "limits.supply_voltage_scheduled_min_v",
+                    l.supply_voltage_scheduled_min_v,
+                    l.supply_voltage_min_v,
+                    l.supply_voltage_max_v,
+                ),
+                (
+                    "limits.supply_voltage_scheduled_max_v",
+                    l.supply_voltage_scheduled_max_v,
+                    l.supply_voltage_min_v,
+                    l.supply_voltage_max_v,
+                ),
+                (
+                    "limits.supply_pressure_scheduled_min_pa",
+                    l.supply_pressure_scheduled_min_pa,
+                    l.supply_pressure_min_pa,
+                    l.supply_pressure_max_pa,
+                ),
+                (
+                    "limits.supply_pressure_scheduled_max_pa",
+                    l.supply_pressure_scheduled_max_pa,
+                    l.supply_pressure_min_pa,
+                    l.supply_pressure_max_pa,
+                ),
+            ] {
+                let Some(v) = v else { continue };
+                if !v.is_finite() {
+                    return Err(bad(&at(key), format!("must be finite, got {v}")));
+                }
+                if lo.is_some_and(|lo| v < lo) || hi.is_some_and(|hi| v > hi) {
+                    return Err(bad(
+                        &at(key),
+                        format!(
+                            "must lie inside the hard band [{}, {}], got {v}",
+                            lo.unwrap_or(f64::NEG_INFINITY),
+                            hi.unwrap_or(f64::INFINITY)
+                        ),
+                    ));
                 }
             }
             let in_travel = |v: f64| {
@@ -1092,9 +1157,17 @@ impl AxisConfig {
     /// The gain-factor schedule (`gain_factor` column), if the axis has one.
     pub fn gain_factor_points(&self) -> Result<Option<Vec<SchedulePoint>>, KeyRule> {
         match &self.schedule {
-            Some(s) if !s.schedules_drive_gains() => {
-                schedule_points(s, &[("gain_factor", &s.gain_factor)]).map(Some)
-            }
+            Some(s) if !s.schedules_drive_gains() => match &s.command_limit_factor {
+                None => schedule_points(s, &[("gain_factor", &s.gain_factor)]).map(Some),
+                Some(_) => schedule_points(
+                    s,
+                    &[
+                        ("gain_factor", &s.gain_factor),
+                        ("command_limit_factor", &s.command_limit_factor),
+                    ],
+                )
+                .map(Some),
+            },
             _ => Ok(None),
         }
     }
@@ -1317,6 +1390,12 @@ impl AxisConfig {
                     ));
                 }
             }
+            if s.command_limit_factor.is_some() && s.schedules_drive_gains() {
+                return Err((
+                    "schedule.command_limit_factor".to_string(),
+                    "goes with gain_factor, not with drive gains".to_string(),
+                ));
+            }
             if let Some(points) = self.gain_factor_points()? {
                 for p in &points {
                     if !(p.params[0].is_finite() && p.params[0] > 0.0) {
@@ -1324,6 +1403,14 @@ impl AxisConfig {
                             "schedule.gain_factor".to_string(),
                             format!("must be > 0, got {}", p.params[0]),
                         ));
+                    }
+                    if let Some(&l) = p.params.get(1) {
+                        if !(l.is_finite() && l > 0.0 && l <= 1.0) {
+                            return Err((
+                                "schedule.command_limit_factor".to_string(),
+                                format!("must lie in (0, 1], got {l}"),
+                            ));
+                        }
                     }
                 }
                 GainSchedule::new(&points).map_err(param("schedule"))?;

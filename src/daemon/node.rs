@@ -13,8 +13,8 @@ use crate::canopen::{
     SyncCounter,
 };
 use crate::canopen::{ObjectDictionary, SdoServer};
-use crate::control::ControllerError;
-use crate::supervise::FaultState;
+use crate::control::{BandStatus, ControllerError};
+use crate::supervise::{FaultKind, FaultState};
 use hdrhistogram::Histogram;
 
 /// Counters of the node since start.
@@ -127,6 +127,8 @@ pub struct ControllerNode {
     heartbeat_every: u32,
     status_every: u32,
     last_fault_state: Vec<(FaultState, u16, u16)>,
+    /// Where each axis' supply was against its scheduled band last cycle.
+    last_supply_band: Vec<BandStatus>,
     announce_reset: Vec<bool>,
     counters: NodeCounters,
     latency_max_s: f64,
@@ -245,6 +247,7 @@ impl ControllerNode {
             node_id: config.node.node_id,
             state: NmtState::Initialising,
             last_fault_state: vec![(FaultState::Ok, 0, 0); axes.len()],
+            last_supply_band: vec![BandStatus::Inside; axes.len()],
             announce_reset: vec![false; axes.len()],
             axes,
             sync: SyncCounter::default(),
@@ -735,6 +738,31 @@ impl ControllerNode {
                     state: step.supervision.state,
                     cycle,
                 }));
+            }
+            if step.supply_band != self.last_supply_band[index] {
+                self.last_supply_band[index] = step.supply_band;
+                match step.supply_band {
+                    // Back inside: "error reset" when nothing else is active.
+                    BandStatus::Inside => {
+                        if step.supervision.latched.is_empty()
+                            && step.model.machine.latched.is_empty()
+                        {
+                            send(&Emcy::reset(node).encode(self.node_id));
+                        }
+                    }
+                    // A supply past the hard band has its own EMCY and the safe state.
+                    _ if step.supervision.latched.contains(FaultKind::SupplyVoltage)
+                        || step.supervision.latched.contains(FaultKind::SupplyPressure) => {}
+                    band => {
+                        let emcy = step.emcy(Emcy::supply_band(
+                            node,
+                            axis.supply_band_is_pressure(),
+                            band == BandStatus::Below,
+                            step.supervision.latched,
+                        ));
+                        send(&emcy.encode(self.node_id));
+                    }
+                }
             }
             let now_state = (
                 step.supervision.state,
