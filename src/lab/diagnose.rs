@@ -380,7 +380,18 @@ pub fn diagnose(
     }
     let split = ((1.0 - opts.holdout) * index.len() as f64) as usize;
     let (train, test) = index.split_at(split);
-    let (base_spec, base) = fit_spec(&model.spec, data, d, None)?;
+    let (first_spec, _) = fit_spec(&model.spec, data, d, None)?;
+    // The base is fitted again from its own fit, the start of every candidate: where a fixed
+    // column scales with a free parameter (the pneumatic coupling `m/τ` with a free mass), the
+    // residual's unit moves with that parameter, and a base fitted from the declared values
+    // would be measured in other units than the candidates (every candidate then showed a large
+    // positive ΔBIC on the pneumatic balance).
+    let (mut base_spec, base) = fit_spec(&first_spec, data, d, None)?;
+    // Drive constants identified by a search (a coil's time constant) stay as the base found
+    // them: the candidates differ from the base by their effect alone.
+    for (name, _) in super::regress::drive_grid(&base_spec, d, data) {
+        base_spec.set_free(&name, false)?;
+    }
     // Moving samples and samples at rest both enter the residual, rest weighted as much as
     // motion.
     let samples = index.len() + base.standstill.len();
