@@ -17,9 +17,10 @@
 //! | [`compare`] | prediction modes and the fit / NRMSE / RMSE of a model |
 //! | [`regimes`] | error by regime and residual tests: where a model fails |
 //! | [`diagnose`] | candidate effects, their refit, penalised ranking and verdict |
+//! | [`discover`] | diagnose, add the verdict, refit, repeat: the ladder of effects |
 //! | [`methods`] | the identification methods of `fit`: least squares, recursive, output error |
 //! | [`report`] | HTML page with SVG plots |
-//! | [`cli`] | the `actuator compare / diagnose / fit / report` commands |
+//! | [`cli`] | the `actuator compare / diagnose / discover / fit / report` commands |
 //!
 //! The lab uses the physics and identification layers and reads the daemon's recordings; it
 //! never uses the runtime otherwise.
@@ -28,6 +29,7 @@ pub mod cli;
 pub mod compare;
 pub mod data;
 pub mod diagnose;
+pub mod discover;
 pub mod methods;
 pub mod model;
 pub mod regimes;
