@@ -240,6 +240,7 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             let held = fraction
                 .map(|f| holdout(&m, &d, &prep, mode, k, f))
                 .transpose()?;
+            let drive = super::drive::identify(&m.spec, &d, &prep)?;
             if json {
                 let out = serde_json::json!({
                     "mode": c.mode.name(), "quantity": c.quantity, "unit": c.unit,
@@ -247,6 +248,10 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                     "data_samples": d.len(),
                     "note": c.note, "regimes": b.regimes, "tests": b.tests, "worst": b.worst,
                     "holdout": held,
+                    "drive": drive.iter().map(|c| serde_json::json!({
+                        "name": c.name, "declared": c.declared, "is_declared": c.is_declared,
+                        "value": c.value, "low": c.low, "high": c.high,
+                        "contradicted": c.contradicted(), "message": c.sentence()})).collect::<Vec<_>>(),
                 });
                 println!("{}", serde_json::to_string_pretty(&out)?);
                 return Ok(());
@@ -284,6 +289,20 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 );
             }
             println!("\n{}", b.worst);
+            if !drive.is_empty() {
+                println!("\ndrive constants from the data (95 % intervals):");
+                for c in &drive {
+                    println!(
+                        "  {}{}",
+                        c.sentence(),
+                        if c.contradicted() {
+                            "  <- the data contradict the declared value"
+                        } else {
+                            ""
+                        }
+                    );
+                }
+            }
             if let Some(h) = held {
                 println!(
                     "\nheld-out validation (last {:.0} %, from t = {:.3} s; {}):",

@@ -386,12 +386,9 @@ pub fn diagnose(
     // residual's unit moves with that parameter, and a base fitted from the declared values
     // would be measured in other units than the candidates (every candidate then showed a large
     // positive ΔBIC on the pneumatic balance).
-    let (mut base_spec, base) = fit_spec(&first_spec, data, d, None)?;
-    // Drive constants identified by a search (a coil's time constant) stay as the base found
-    // them: the candidates differ from the base by their effect alone.
-    for (name, _) in super::regress::drive_grid(&base_spec, d, data) {
-        base_spec.set_free(&name, false)?;
-    }
+    // Drive constants searched on a grid (a coil's time constant) are searched again with each
+    // candidate: a lag in the drive and a missing damping trade against each other.
+    let (base_spec, base) = fit_spec(&first_spec, data, d, None)?;
     // Moving samples and samples at rest both enter the residual, rest weighted as much as
     // motion.
     let samples = index.len() + base.standstill.len();

@@ -12,6 +12,7 @@
 //! | [`data`] | CSV and MCAP data sets, column mapping, errors with file/row/column |
 //! | [`model`] | model files (`config/models/*.toml`) and `--family F --with a,b` |
 //! | [`signals`] | zero-phase filtering and derivatives for the regression |
+//! | [`drive`] | the drive constants the data determine, and the declared ones they contradict |
 //! | [`regress`] | inverse-dynamics regression: the balance of forces, linear in its parameters |
 //! | [`regress_gear`] | the same for `motor_gear`: the load balance with the torque the gear transmits |
 //! | [`compare`] | prediction modes and the fit / NRMSE / RMSE of a model |
@@ -30,6 +31,7 @@ pub mod compare;
 pub mod data;
 pub mod diagnose;
 pub mod discover;
+pub mod drive;
 pub mod methods;
 pub mod model;
 pub mod regimes;
