@@ -34,7 +34,9 @@ fn cases() -> Vec<(Plant, Option<Hidden>)> {
     ] {
         v.push((Plant::ServoAxis, Some(h)));
     }
-    v.push((Plant::Solenoid, Some(H::Coulomb)));
+    for h in [H::Coulomb, H::Viscous, H::Hysteresis] {
+        v.push((Plant::Solenoid, Some(h)));
+    }
     for h in [H::Coulomb, H::SupplyFriction] {
         v.push((Plant::Pneumatic, Some(h)));
     }
@@ -51,8 +53,6 @@ fn open_cases() -> Vec<(Plant, Option<Hidden>)> {
     vec![
         (Plant::ServoAxis, Some(H::Stribeck)),
         (Plant::ServoAxis, Some(H::Payload)),
-        (Plant::Solenoid, Some(H::Viscous)),
-        (Plant::Solenoid, Some(H::Hysteresis)),
         (Plant::Pneumatic, Some(H::SupplyGain)),
         (Plant::Pneumatic, None),
     ]

@@ -386,9 +386,22 @@ pub fn diagnose(
     // residual's unit moves with that parameter, and a base fitted from the declared values
     // would be measured in other units than the candidates (every candidate then showed a large
     // positive ΔBIC on the pneumatic balance).
+    let (mut base_spec, base) = fit_spec(&first_spec, data, d, None)?;
     // Drive constants searched on a grid (a coil's time constant) are searched again with each
-    // candidate: a lag in the drive and a missing damping trade against each other.
-    let (base_spec, base) = fit_spec(&first_spec, data, d, None)?;
+    // candidate, on a coarse grid around the whole range and the base's value: a lag in the
+    // drive and a missing damping trade against each other, so the base's value may be far
+    // from the candidate's.
+    let drive: Vec<(String, Vec<f64>)> = super::regress::drive_grid(&base_spec, d, data)
+        .into_iter()
+        .map(|(name, grid)| {
+            let mut coarse: Vec<f64> = grid.iter().step_by(2).copied().collect();
+            coarse.push(base_spec.get(&name).unwrap_or(grid[0]));
+            (name, coarse)
+        })
+        .collect();
+    for (name, _) in &drive {
+        base_spec.set_free(name, false)?;
+    }
     // Moving samples and samples at rest both enter the residual, rest weighted as much as
     // motion.
     let samples = index.len() + base.standstill.len();
@@ -424,6 +437,7 @@ pub fn diagnose(
             let c = candidate(
                 kind,
                 &base_spec,
+                &drive,
                 &base,
                 base_holdout,
                 data,
@@ -507,6 +521,7 @@ fn holdout_rss(
 fn candidate(
     kind: EffectKind,
     base_spec: &PlantSpec,
+    drive: &[(String, Vec<f64>)],
     base: &IdFit,
     base_holdout: f64,
     data: &Dataset,
@@ -519,7 +534,18 @@ fn candidate(
 ) -> anyhow::Result<Candidate> {
     let mut spec = base_spec.clone();
     spec.add_effect(kind)?;
-    let (fitted, fit) = fit_spec(&spec, data, d, None)?;
+    let (mut fitted, mut fit) = fit_spec(&spec, data, d, None)?;
+    for (name, grid) in drive {
+        for &g in grid {
+            let mut s = spec.clone();
+            s.set(name, g)?;
+            let (f_spec, f) = fit_spec(&s, data, d, None)?;
+            if f.rss < fit.rss {
+                (fitted, fit) = (f_spec, f);
+                spec = s;
+            }
+        }
+    }
     let held = holdout_rss(&spec, data, d, train, test)?;
     let k_b = base.parameters;
     let k_c = fit.parameters.max(k_b + 1);
