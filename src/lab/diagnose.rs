@@ -611,3 +611,58 @@ impl Diagnosis {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bic_penalises_parameters_and_rewards_a_smaller_residual() {
+        // Same residual, one more parameter: the penalty ln(N_eff).
+        let d = bic_delta(10.0, 3, 10.0, 4, 1000.0);
+        assert!((d - 1000f64.ln()).abs() < 1e-9);
+        // A residual cut by 10 % on 1000 effective samples outweighs one parameter.
+        assert!(bic_delta(10.0, 3, 9.0, 4, 1000.0) < 0.0);
+        // Scale-free: the ratio of the residuals is all that counts.
+        let a = bic_delta(10.0, 3, 8.0, 5, 500.0);
+        let b = bic_delta(1e-6, 3, 8e-7, 5, 500.0);
+        assert!((a - b).abs() < 1e-9);
+    }
+
+    #[test]
+    fn correlation_of_proportional_and_opposite_series() {
+        let x: Vec<f64> = (0..50).map(|k| (k as f64 * 0.3).sin()).collect();
+        let y: Vec<f64> = x.iter().map(|v| 3.0 * v + 1.0).collect();
+        let z: Vec<f64> = x.iter().map(|v| -v).collect();
+        assert!((corr(&x, &y) - 1.0).abs() < 1e-12);
+        assert!((corr(&x, &z) + 1.0).abs() < 1e-12);
+        assert_eq!(corr(&x, &[1.0; 50]), 0.0);
+    }
+
+    #[test]
+    fn mean_where_counts_the_selected_samples() {
+        let r = [1.0, 2.0, 3.0, 4.0];
+        let idx = [10, 11, 12, 13];
+        assert_eq!(mean_where(&r, &idx, |k| k >= 12), (3.5, 2));
+        assert_eq!(mean_where(&r, &idx, |_| false), (0.0, 0));
+    }
+
+    #[test]
+    fn a_simpler_candidate_is_less_complex() {
+        let c = |effect: &str| Candidate {
+            effect: effect.into(),
+            nrmse: 0.1,
+            improvement: 0.5,
+            significant: true,
+            evidence: String::new(),
+            p_value: 0.0,
+            delta_bic: -10.0,
+            holdout_improvement: 0.5,
+            parameters_added: 1,
+            parameters: Vec::new(),
+        };
+        assert!(complexity(&c("offset")) < complexity(&c("spring")));
+        assert!(complexity(&c("coulomb")) < complexity(&c("stribeck")));
+        assert_eq!(complexity(&c("no_such_effect")), usize::MAX);
+    }
+}

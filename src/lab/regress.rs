@@ -1352,3 +1352,96 @@ pub fn apply_fit(spec: &mut PlantSpec, bal: &Balance, fit: &IdFit) -> anyhow::Re
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_held_force_is_taken_at_the_middle_of_its_two_holds() {
+        assert_eq!(
+            held_force(vec![2.0, 4.0, 4.0, 0.0]),
+            vec![2.0, 3.0, 4.0, 2.0]
+        );
+    }
+
+    fn data(u: Vec<f64>) -> Dataset {
+        let n = u.len();
+        Dataset {
+            origin: "t".into(),
+            time: (0..n).map(|k| k as f64 * 1e-3).collect(),
+            input: u,
+            output: vec![0.0; n],
+            supply: None,
+            current: None,
+        }
+    }
+
+    #[test]
+    fn the_power_stage_delays_clips_and_dead_zones_in_that_order() {
+        let mut s = PlantSpec::new(Family::LinearAxis);
+        for e in [
+            EffectKind::DeadTime,
+            EffectKind::Saturation,
+            EffectKind::Deadzone,
+        ] {
+            s.add_effect(e).expect("effect");
+        }
+        s.set("dead_time.delay_s", 2e-3).expect("delay");
+        s.set("saturation.max_n", 5.0).expect("max");
+        s.set("saturation.min_n", -5.0).expect("min");
+        s.set("deadzone.threshold_n", 1.0).expect("threshold");
+        let u = shaped_command(&s, &data(vec![0.5, 8.0, -3.0, 0.2, 0.0]), 1e-3);
+        // Delayed by two samples (the first held), clipped to ±5, then 1 N taken off.
+        assert_eq!(u, vec![0.0, 0.0, 0.0, 4.0, -2.0]);
+    }
+
+    #[test]
+    fn the_coil_is_searched_only_without_a_current() {
+        let s = PlantSpec::new(Family::Solenoid);
+        let mut raw = data(vec![1.0; 200]);
+        let d = crate::lab::signals::prepare(&raw, None);
+        let grid = drive_grid(&s, &d, &raw);
+        assert_eq!(grid.len(), 1);
+        let (name, values) = &grid[0];
+        assert_eq!(name, COIL_TIME_CONSTANT);
+        assert!((values[0] - 2e-3).abs() < 1e-12 && (values[values.len() - 1] - 0.1).abs() < 1e-12);
+        raw.current = Some(vec![0.0; 200]);
+        assert!(drive_grid(&s, &d, &raw).is_empty());
+        assert!(drive_grid(&PlantSpec::new(Family::LinearAxis), &d, &raw).is_empty());
+    }
+
+    #[test]
+    fn pneumatic_valve_speeds_and_lag_follow_the_fitted_coupling() {
+        // The balance's valve columns carry c_decl: with the coupling fitted at r c_decl the
+        // speeds are the coefficients over r and the lag the declared one over r.
+        let spec = PlantSpec::new(Family::Pneumatic);
+        let n = 400;
+        let raw = Dataset {
+            input: (0..n).map(|k| (k as f64 * 0.05).sin()).collect(),
+            ..data(vec![0.0; n])
+        };
+        let d = crate::lab::signals::prepare(&raw, None);
+        let bal = balance(&spec, &raw, &d).expect("balance");
+        let names: Vec<&str> = bal.terms.iter().map(|t| t.name.as_str()).collect();
+        let j = names
+            .iter()
+            .position(|n| *n == PNEUMATIC_COUPLING)
+            .expect("coupling");
+        assert!(!bal.terms[0].free, "the mass is the reference");
+        let mut fit = bal.evaluate();
+        fit.values[j] = 2.0;
+        let down = names
+            .iter()
+            .position(|n| *n == "pneumatic.gain_down_m_per_s")
+            .expect("down");
+        fit.values[down] = 0.06;
+        let mut out = spec.clone();
+        apply_fit(&mut out, &bal, &fit).expect("applies");
+        let tau = spec.get("pneumatic.velocity_time_constant_s").expect("tau");
+        assert!(
+            (out.get("pneumatic.velocity_time_constant_s").expect("tau") - tau / 2.0).abs() < 1e-15
+        );
+        assert!((out.get("pneumatic.gain_down_m_per_s").expect("down") - 0.03).abs() < 1e-15);
+    }
+}
