@@ -1,6 +1,7 @@
 //! Speed of the model lab on long data sets: `actuator compare` on one million samples, phase by
 //! phase (read the CSV, prepare the signals, compare, break the error down), and `diagnose` with
-//! the whole catalogue on 100 000 samples. Run with `cargo bench --bench lab`.
+//! the whole catalogue on 100 000 samples (with the current recorded, and without it: the coil's
+//! time constant identified), and `discover` adding two effects. Run with `cargo bench --bench lab`.
 //!
 //! The data are synthesised here: a solenoid with spring, viscous damping and Coulomb friction
 //! in closed loop (PID on position, 1 kHz, sensor quantisation and noise, current recorded, a
@@ -16,6 +17,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use actuatord::lab::data::{load, to_csv};
 use actuatord::lab::regimes::breakdown;
 use actuatord::lab::signals::prepare;
+use actuatord::lab::discover::discover;
 use actuatord::lab::{compare, diagnose, Columns, Dataset, DiagnoseOptions, Mode, Model};
 use actuatord::physics::{EffectKind, Family, PlantSpec};
 
@@ -134,6 +136,20 @@ fn lab(c: &mut Criterion) {
     let opts = DiagnoseOptions::default();
     g.bench_function("whole_catalogue", |b| {
         b.iter(|| black_box(diagnose(&m, &d, &prep, &opts, &|_, _, _| {}).expect("diagnoses")))
+    });
+    // Without the current the coil's time constant is identified with every candidate.
+    let mut bare = d.clone();
+    bare.current = None;
+    let prep_bare = prepare(&bare, None);
+    g.bench_function("whole_catalogue_drive_identified", |b| {
+        b.iter(|| {
+            black_box(diagnose(&m, &bare, &prep_bare, &opts, &|_, _, _| {}).expect("diagnoses"))
+        })
+    });
+    // Two effects missing (viscous damping, Coulomb friction): three diagnoses and the fits.
+    let spring = Model::from_names("solenoid", &["spring".into()]).expect("model");
+    g.bench_function("discover_two_steps", |b| {
+        b.iter(|| black_box(discover(&spring, &d, &prep, &opts, &|_, _| {}).expect("discovers")))
     });
     g.finish();
 }

@@ -1,4 +1,4 @@
-//! The lab's command line: `actuator compare | diagnose | fit | report`.
+//! The lab's command line: `actuator compare | diagnose | discover | fit | report`.
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -8,6 +8,7 @@ use clap::{Args, Subcommand};
 use super::compare::{compare, default_mode, holdout, Mode};
 use super::data::{load, Columns, Dataset};
 use super::diagnose::{diagnose, DiagnoseOptions};
+use super::discover::discover;
 use super::methods::{fit_model, FitMethod, FitOptions, Status};
 use super::model::Model;
 use super::regimes::breakdown;
@@ -89,6 +90,23 @@ pub enum LabCommand {
         #[arg(long, default_value_t = 0.05)]
         min_improvement: f64,
         /// Print the JSON contract.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Diagnose, add the effect named, refit, repeat until nothing is significant; print the
+    /// ladder and write the final model.
+    Discover {
+        #[command(flatten)]
+        data: DataArgs,
+        #[command(flatten)]
+        model: ModelArgs,
+        /// Smallest relative NRMSE drop that counts, in and out of sample.
+        #[arg(long, default_value_t = 0.05)]
+        min_improvement: f64,
+        /// Where to write the final model.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print JSON.
         #[arg(long)]
         json: bool,
     },
@@ -222,6 +240,7 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             let held = fraction
                 .map(|f| holdout(&m, &d, &prep, mode, k, f))
                 .transpose()?;
+            let drive = super::drive::identify(&m.spec, &d, &prep)?;
             if json {
                 let out = serde_json::json!({
                     "mode": c.mode.name(), "quantity": c.quantity, "unit": c.unit,
@@ -229,6 +248,10 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                     "data_samples": d.len(),
                     "note": c.note, "regimes": b.regimes, "tests": b.tests, "worst": b.worst,
                     "holdout": held,
+                    "drive": drive.iter().map(|c| serde_json::json!({
+                        "name": c.name, "declared": c.declared, "is_declared": c.is_declared,
+                        "value": c.value, "low": c.low, "high": c.high,
+                        "contradicted": c.contradicted(), "message": c.sentence()})).collect::<Vec<_>>(),
                 });
                 println!("{}", serde_json::to_string_pretty(&out)?);
                 return Ok(());
@@ -266,6 +289,20 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 );
             }
             println!("\n{}", b.worst);
+            if !drive.is_empty() {
+                println!("\ndrive constants from the data (95 % intervals):");
+                for c in &drive {
+                    println!(
+                        "  {}{}",
+                        c.sentence(),
+                        if c.contradicted() {
+                            "  <- the data contradict the declared value"
+                        } else {
+                            ""
+                        }
+                    );
+                }
+            }
             if let Some(h) = held {
                 println!(
                     "\nheld-out validation (last {:.0} %, from t = {:.3} s; {}):",
@@ -334,6 +371,96 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             match &dg.verdict {
                 Some(v) => println!("\nverdict: {v} is most likely missing (add it: --with {v}, then `actuator fit`)"),
                 None => println!("\nverdict: none — no candidate improves the fit significantly"),
+            }
+            Ok(())
+        }
+        LabCommand::Discover {
+            data,
+            model,
+            min_improvement,
+            out,
+            json,
+        } => {
+            let (d, prep) = load_data(&data)?;
+            let m = load_model(&model)?;
+            let opts = DiagnoseOptions {
+                min_improvement,
+                ..DiagnoseOptions::default()
+            };
+            let found = discover(&m, &d, &prep, &opts, &|step, effect| {
+                if !json {
+                    eprintln!("step {step}: adding {effect}, refitting");
+                }
+            })?;
+            if let Some(path) = &out {
+                let text = format!(
+                    "# Found by `actuator discover` on {} from {} (diagnosis NRMSE {:.4} -> {:.4}{})\n{}",
+                    d.origin,
+                    m.name,
+                    found.nrmse_base,
+                    found.nrmse_final,
+                    found
+                        .steps
+                        .iter()
+                        .map(|s| format!(", +{}", s.effect))
+                        .collect::<String>(),
+                    found.model.to_toml()
+                );
+                std::fs::write(path, text)
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+            }
+            if json {
+                let mut j = found.to_json();
+                j["out"] = serde_json::json!(out.as_ref().map(|p| p.display().to_string()));
+                println!("{}", serde_json::to_string_pretty(&j)?);
+                return Ok(());
+            }
+            println!(
+                "model {} on {}: NRMSE {:.4} (free parameters refitted; the diagnosis criterion, rest and motion)",
+                m.name, d.origin, found.nrmse_base
+            );
+            println!(
+                "\n  {:<4} {:<20} {:>8} {:>8} {:>9} {:>10}  evidence",
+                "step", "effect added", "before", "after", "held-out", "ΔBIC"
+            );
+            for (i, s) in found.steps.iter().enumerate() {
+                println!(
+                    "  {:<4} {:<20} {:>8.4} {:>8.4} {:>8.1}% {:>10.1}  {}",
+                    i + 1,
+                    s.effect,
+                    s.nrmse_before,
+                    s.nrmse,
+                    100.0 * s.holdout_improvement,
+                    s.delta_bic,
+                    s.evidence
+                );
+            }
+            let with: Vec<&str> = found.model.effects().iter().map(|e| e.name()).collect();
+            println!(
+                "\n{}; final model with {}: NRMSE {:.4}",
+                if found.steps.is_empty() {
+                    "nothing added: no candidate improves the model significantly".to_string()
+                } else if found.converged {
+                    format!(
+                        "{} added, then nothing more is significant",
+                        found.steps.len()
+                    )
+                } else {
+                    format!(
+                        "stopped after {} steps (at most {})",
+                        found.steps.len(),
+                        super::discover::MAX_STEPS
+                    )
+                },
+                if with.is_empty() {
+                    "no effects".to_string()
+                } else {
+                    with.join(",")
+                },
+                found.nrmse_final
+            );
+            if let Some(path) = &out {
+                println!("wrote {}", path.display());
             }
             Ok(())
         }

@@ -380,7 +380,28 @@ pub fn diagnose(
     }
     let split = ((1.0 - opts.holdout) * index.len() as f64) as usize;
     let (train, test) = index.split_at(split);
-    let (base_spec, base) = fit_spec(&model.spec, data, d, None)?;
+    let (first_spec, _) = fit_spec(&model.spec, data, d, None)?;
+    // The base is fitted again from its own fit, the start of every candidate: where a fixed
+    // column scales with a free parameter (the pneumatic coupling `m/τ` with a free mass), the
+    // residual's unit moves with that parameter, and a base fitted from the declared values
+    // would be measured in other units than the candidates (every candidate then showed a large
+    // positive ΔBIC on the pneumatic balance).
+    let (mut base_spec, base) = fit_spec(&first_spec, data, d, None)?;
+    // Drive constants searched on a grid (a coil's time constant) are searched again with each
+    // candidate, on a coarse grid around the whole range and the base's value: a lag in the
+    // drive and a missing damping trade against each other, so the base's value may be far
+    // from the candidate's.
+    let drive: Vec<(String, Vec<f64>)> = super::regress::drive_grid(&base_spec, d, data)
+        .into_iter()
+        .map(|(name, grid)| {
+            let mut coarse: Vec<f64> = grid.iter().step_by(2).copied().collect();
+            coarse.push(base_spec.get(&name).unwrap_or(grid[0]));
+            (name, coarse)
+        })
+        .collect();
+    for (name, _) in &drive {
+        base_spec.set_free(name, false)?;
+    }
     // Moving samples and samples at rest both enter the residual, rest weighted as much as
     // motion.
     let samples = index.len() + base.standstill.len();
@@ -416,6 +437,7 @@ pub fn diagnose(
             let c = candidate(
                 kind,
                 &base_spec,
+                &drive,
                 &base,
                 base_holdout,
                 data,
@@ -499,6 +521,7 @@ fn holdout_rss(
 fn candidate(
     kind: EffectKind,
     base_spec: &PlantSpec,
+    drive: &[(String, Vec<f64>)],
     base: &IdFit,
     base_holdout: f64,
     data: &Dataset,
@@ -511,7 +534,18 @@ fn candidate(
 ) -> anyhow::Result<Candidate> {
     let mut spec = base_spec.clone();
     spec.add_effect(kind)?;
-    let (fitted, fit) = fit_spec(&spec, data, d, None)?;
+    let (mut fitted, mut fit) = fit_spec(&spec, data, d, None)?;
+    for (name, grid) in drive {
+        for &g in grid {
+            let mut s = spec.clone();
+            s.set(name, g)?;
+            let (f_spec, f) = fit_spec(&s, data, d, None)?;
+            if f.rss < fit.rss {
+                (fitted, fit) = (f_spec, f);
+                spec = s;
+            }
+        }
+    }
     let held = holdout_rss(&spec, data, d, train, test)?;
     let k_b = base.parameters;
     let k_c = fit.parameters.max(k_b + 1);
@@ -575,5 +609,60 @@ impl Diagnosis {
             "effective_samples": self.effective_samples,
             "not_assessed": self.not_assessed,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bic_penalises_parameters_and_rewards_a_smaller_residual() {
+        // Same residual, one more parameter: the penalty ln(N_eff).
+        let d = bic_delta(10.0, 3, 10.0, 4, 1000.0);
+        assert!((d - 1000f64.ln()).abs() < 1e-9);
+        // A residual cut by 10 % on 1000 effective samples outweighs one parameter.
+        assert!(bic_delta(10.0, 3, 9.0, 4, 1000.0) < 0.0);
+        // Scale-free: the ratio of the residuals is all that counts.
+        let a = bic_delta(10.0, 3, 8.0, 5, 500.0);
+        let b = bic_delta(1e-6, 3, 8e-7, 5, 500.0);
+        assert!((a - b).abs() < 1e-9);
+    }
+
+    #[test]
+    fn correlation_of_proportional_and_opposite_series() {
+        let x: Vec<f64> = (0..50).map(|k| (k as f64 * 0.3).sin()).collect();
+        let y: Vec<f64> = x.iter().map(|v| 3.0 * v + 1.0).collect();
+        let z: Vec<f64> = x.iter().map(|v| -v).collect();
+        assert!((corr(&x, &y) - 1.0).abs() < 1e-12);
+        assert!((corr(&x, &z) + 1.0).abs() < 1e-12);
+        assert_eq!(corr(&x, &[1.0; 50]), 0.0);
+    }
+
+    #[test]
+    fn mean_where_counts_the_selected_samples() {
+        let r = [1.0, 2.0, 3.0, 4.0];
+        let idx = [10, 11, 12, 13];
+        assert_eq!(mean_where(&r, &idx, |k| k >= 12), (3.5, 2));
+        assert_eq!(mean_where(&r, &idx, |_| false), (0.0, 0));
+    }
+
+    #[test]
+    fn a_simpler_candidate_is_less_complex() {
+        let c = |effect: &str| Candidate {
+            effect: effect.into(),
+            nrmse: 0.1,
+            improvement: 0.5,
+            significant: true,
+            evidence: String::new(),
+            p_value: 0.0,
+            delta_bic: -10.0,
+            holdout_improvement: 0.5,
+            parameters_added: 1,
+            parameters: Vec::new(),
+        };
+        assert!(complexity(&c("offset")) < complexity(&c("spring")));
+        assert!(complexity(&c("coulomb")) < complexity(&c("stribeck")));
+        assert_eq!(complexity(&c("no_such_effect")), usize::MAX);
     }
 }

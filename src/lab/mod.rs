@@ -12,14 +12,16 @@
 //! | [`data`] | CSV and MCAP data sets, column mapping, errors with file/row/column |
 //! | [`model`] | model files (`config/models/*.toml`) and `--family F --with a,b` |
 //! | [`signals`] | zero-phase filtering and derivatives for the regression |
+//! | [`drive`] | the drive constants the data determine, and the declared ones they contradict |
 //! | [`regress`] | inverse-dynamics regression: the balance of forces, linear in its parameters |
 //! | [`regress_gear`] | the same for `motor_gear`: the load balance with the torque the gear transmits |
 //! | [`compare`] | prediction modes and the fit / NRMSE / RMSE of a model |
 //! | [`regimes`] | error by regime and residual tests: where a model fails |
 //! | [`diagnose`] | candidate effects, their refit, penalised ranking and verdict |
+//! | [`discover`] | diagnose, add the verdict, refit, repeat: the ladder of effects |
 //! | [`methods`] | the identification methods of `fit`: least squares, recursive, output error |
 //! | [`report`] | HTML page with SVG plots |
-//! | [`cli`] | the `actuator compare / diagnose / fit / report` commands |
+//! | [`cli`] | the `actuator compare / diagnose / discover / fit / report` commands |
 //!
 //! The lab uses the physics and identification layers and reads the daemon's recordings; it
 //! never uses the runtime otherwise.
@@ -28,6 +30,8 @@ pub mod cli;
 pub mod compare;
 pub mod data;
 pub mod diagnose;
+pub mod discover;
+pub mod drive;
 pub mod methods;
 pub mod model;
 pub mod regimes;

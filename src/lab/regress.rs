@@ -196,6 +196,14 @@ pub(super) fn supply_ratio(spec: &PlantSpec, raw: &Dataset) -> Vec<f64> {
     }
 }
 
+/// Coefficient of the pneumatic chamber's coupling `m/τ` over its declared value, fitted when
+/// the valve gains are not given.
+pub const PNEUMATIC_COUPLING: &str = "chamber coupling m/τ (relative)";
+
+fn is_free(spec: &PlantSpec, name: &str) -> bool {
+    spec.params().iter().any(|(n, p)| n == name && p.free)
+}
+
 /// Command after dead time, saturation and dead zone (the order of the power stage), per sample.
 pub(super) fn shaped_command(spec: &PlantSpec, raw: &Dataset, dt: f64) -> Vec<f64> {
     let mut u = raw.input.clone();
@@ -377,6 +385,7 @@ fn body_drive_terms(
             .map(|&v| if v >= 0.0 { 1.0 } else { -1.0 })
             .collect();
     // Inertia.
+    let inertia = terms.len();
     terms.push(param_term(spec, &f("mass_kg"), d.a.clone()));
     // The drive signal D and its gain K.
     let ratio = supply_ratio(spec, raw);
@@ -454,16 +463,22 @@ fn body_drive_terms(
         Family::Pneumatic => {
             // Valves: v_c = K_I1 d (d < 0) or K_I2 d (d > 0), times (S/S_nom)^κ.
             let c = p(spec, &f("mass_kg")) / p(spec, &f("velocity_time_constant_s"));
-            let down: Vec<f64> = u
-                .iter()
-                .zip(&ratio)
-                .map(|(&x, &r)| -c * x.clamp(-1.0, 0.0) * factor(r))
-                .collect();
-            let up: Vec<f64> = u
-                .iter()
-                .zip(&ratio)
-                .map(|(&x, &r)| -c * x.clamp(0.0, 1.0) * factor(r))
-                .collect();
+            let declared = |name: &str| !is_free(spec, &f(name));
+            let from_data = !declared("gain_down_m_per_s") && !declared("gain_up_m_per_s");
+            // The duty is held over each sample like a drive force: taken at the instant of the
+            // acceleration it is balanced against (see `held_force`).
+            let down: Vec<f64> = held_force(
+                u.iter()
+                    .zip(&ratio)
+                    .map(|(&x, &r)| -c * x.clamp(-1.0, 0.0) * factor(r))
+                    .collect(),
+            );
+            let up: Vec<f64> = held_force(
+                u.iter()
+                    .zip(&ratio)
+                    .map(|(&x, &r)| -c * x.clamp(0.0, 1.0) * factor(r))
+                    .collect(),
+            );
             let (dt, fc) = (d.dt, d.cutoff_hz);
             // Resisting form: the valves push with c v_c (column -c d), the compliance takes c v.
             terms.push(param_term(
@@ -476,10 +491,24 @@ fn body_drive_terms(
                 &f("gain_up_m_per_s"),
                 zero_phase(&up, fc, dt),
             ));
-            terms.push(fixed_term(
-                "compliance (m/τ) v",
-                d.v.iter().map(|v| c * v).collect(),
-            ));
+            let compliance: Vec<f64> = d.v.iter().map(|v| c * v).collect();
+            if from_data {
+                // Drive constants not given: the declared mass is the scale reference and the
+                // chamber's coupling `m/τ` is fitted with the valve gains (the column `c_decl v`
+                // carries the coefficient `c / c_decl`). The compliance cannot be the reference
+                // here: viscous damping spans the same column, and the trivial fit (damping
+                // `-m/τ`, all else zero) would balance every record.
+                terms[inertia].free = false;
+                terms.push(Term {
+                    name: PNEUMATIC_COUPLING.to_string(),
+                    free: true,
+                    value: 1.0,
+                    bounds: (0.0, f64::INFINITY),
+                    col: compliance,
+                });
+            } else {
+                terms.push(fixed_term("compliance (m/τ) v", compliance));
+            }
             (0.0, Vec::new())
         }
         Family::MotorGear => anyhow::bail!("motor_gear: the drive side is in regress_gear"),
@@ -1152,6 +1181,27 @@ pub fn grid_for(
     }
 }
 
+/// Time constant of a solenoid's coil, when the current is not recorded: the drive of the
+/// balance is the current the coil makes from the voltage, `T_I I' + I = K_I U`, and a lag that
+/// is not the coil's leaves a residual that follows the drive's changes (a hysteresis or a dead
+/// time would take it). Searched from two samples to 0.1 s; the static gain `K_I K_Mag` is not
+/// separable from the mass, whose fitted value carries it.
+pub fn drive_grid(spec: &PlantSpec, d: &Prepared, raw: &Dataset) -> Vec<(String, Vec<f64>)> {
+    if spec.family != Family::Solenoid || raw.current.is_some() {
+        return Vec::new();
+    }
+    let (lo, hi) = ((2.0 * d.dt).max(1e-4), 0.1f64);
+    vec![(
+        COIL_TIME_CONSTANT.to_string(),
+        (0..16)
+            .map(|i| lo * (hi / lo).powf(i as f64 / 15.0))
+            .collect(),
+    )]
+}
+
+/// The solenoid coil's time constant, the drive constant the data determine without a current.
+pub const COIL_TIME_CONSTANT: &str = "solenoid.current_time_constant_s";
+
 /// Set a nonlinear parameter; the Stribeck velocity is one value for both directions.
 pub fn set_nonlinear(spec: &mut PlantSpec, name: &str, value: f64) -> anyhow::Result<()> {
     spec.set(name, value)?;
@@ -1174,12 +1224,16 @@ pub fn fit_spec(
     let mut extra = 0;
     let is_free =
         |spec: &PlantSpec, name: &str| spec.params().iter().any(|(n, p)| n == name && p.free);
-    let grids: Vec<(String, Vec<f64>)> = spec
-        .effects
-        .iter()
-        .flat_map(|e| grid_for(&spec, e.kind, d, raw))
+    let mut grids: Vec<(String, Vec<f64>)> = drive_grid(&spec, d, raw)
+        .into_iter()
+        .chain(
+            spec.effects
+                .iter()
+                .flat_map(|e| grid_for(&spec, e.kind, d, raw)),
+        )
         .filter(|(name, _)| is_free(&spec, name))
         .collect();
+    grids.dedup_by(|a, b| a.0 == b.0);
     if spec
         .effects
         .iter()
@@ -1272,6 +1326,21 @@ pub fn apply_fit(spec: &mut PlantSpec, bal: &Balance, fit: &IdFit) -> anyhow::Re
             spec.set(name, v)?;
         }
     }
+    if let Some(j) = fit.names.iter().position(|n| n == PNEUMATIC_COUPLING) {
+        // The valve gains were fitted on `c_decl d`: with the coupling `r c_decl` fitted, the
+        // speeds are `K = coefficient / r` and the lag `τ = m / (r c_decl)`.
+        let r = fit.values[j];
+        if r > 0.0 && r.is_finite() {
+            let tau = spec
+                .get("pneumatic.velocity_time_constant_s")
+                .unwrap_or(0.0);
+            spec.set("pneumatic.velocity_time_constant_s", tau / r)?;
+            for g in ["pneumatic.gain_down_m_per_s", "pneumatic.gain_up_m_per_s"] {
+                let v = spec.get(g).unwrap_or(0.0);
+                spec.set(g, v / r)?;
+            }
+        }
+    }
     if let (true, Some((sp, sn))) = (bal.breakaway_free, fit.breakaway) {
         let fsx = force_suffix(spec);
         for (side, v) in [("pos", sp), ("neg", sn)] {
@@ -1282,4 +1351,97 @@ pub fn apply_fit(spec: &mut PlantSpec, bal: &Balance, fit: &IdFit) -> anyhow::Re
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_held_force_is_taken_at_the_middle_of_its_two_holds() {
+        assert_eq!(
+            held_force(vec![2.0, 4.0, 4.0, 0.0]),
+            vec![2.0, 3.0, 4.0, 2.0]
+        );
+    }
+
+    fn data(u: Vec<f64>) -> Dataset {
+        let n = u.len();
+        Dataset {
+            origin: "t".into(),
+            time: (0..n).map(|k| k as f64 * 1e-3).collect(),
+            input: u,
+            output: vec![0.0; n],
+            supply: None,
+            current: None,
+        }
+    }
+
+    #[test]
+    fn the_power_stage_delays_clips_and_dead_zones_in_that_order() {
+        let mut s = PlantSpec::new(Family::LinearAxis);
+        for e in [
+            EffectKind::DeadTime,
+            EffectKind::Saturation,
+            EffectKind::Deadzone,
+        ] {
+            s.add_effect(e).expect("effect");
+        }
+        s.set("dead_time.delay_s", 2e-3).expect("delay");
+        s.set("saturation.max_n", 5.0).expect("max");
+        s.set("saturation.min_n", -5.0).expect("min");
+        s.set("deadzone.threshold_n", 1.0).expect("threshold");
+        let u = shaped_command(&s, &data(vec![0.5, 8.0, -3.0, 0.2, 0.0]), 1e-3);
+        // Delayed by two samples (the first held), clipped to ±5, then 1 N taken off.
+        assert_eq!(u, vec![0.0, 0.0, 0.0, 4.0, -2.0]);
+    }
+
+    #[test]
+    fn the_coil_is_searched_only_without_a_current() {
+        let s = PlantSpec::new(Family::Solenoid);
+        let mut raw = data(vec![1.0; 200]);
+        let d = crate::lab::signals::prepare(&raw, None);
+        let grid = drive_grid(&s, &d, &raw);
+        assert_eq!(grid.len(), 1);
+        let (name, values) = &grid[0];
+        assert_eq!(name, COIL_TIME_CONSTANT);
+        assert!((values[0] - 2e-3).abs() < 1e-12 && (values[values.len() - 1] - 0.1).abs() < 1e-12);
+        raw.current = Some(vec![0.0; 200]);
+        assert!(drive_grid(&s, &d, &raw).is_empty());
+        assert!(drive_grid(&PlantSpec::new(Family::LinearAxis), &d, &raw).is_empty());
+    }
+
+    #[test]
+    fn pneumatic_valve_speeds_and_lag_follow_the_fitted_coupling() {
+        // The balance's valve columns carry c_decl: with the coupling fitted at r c_decl the
+        // speeds are the coefficients over r and the lag the declared one over r.
+        let spec = PlantSpec::new(Family::Pneumatic);
+        let n = 400;
+        let raw = Dataset {
+            input: (0..n).map(|k| (k as f64 * 0.05).sin()).collect(),
+            ..data(vec![0.0; n])
+        };
+        let d = crate::lab::signals::prepare(&raw, None);
+        let bal = balance(&spec, &raw, &d).expect("balance");
+        let names: Vec<&str> = bal.terms.iter().map(|t| t.name.as_str()).collect();
+        let j = names
+            .iter()
+            .position(|n| *n == PNEUMATIC_COUPLING)
+            .expect("coupling");
+        assert!(!bal.terms[0].free, "the mass is the reference");
+        let mut fit = bal.evaluate();
+        fit.values[j] = 2.0;
+        let down = names
+            .iter()
+            .position(|n| *n == "pneumatic.gain_down_m_per_s")
+            .expect("down");
+        fit.values[down] = 0.06;
+        let mut out = spec.clone();
+        apply_fit(&mut out, &bal, &fit).expect("applies");
+        let tau = spec.get("pneumatic.velocity_time_constant_s").expect("tau");
+        assert!(
+            (out.get("pneumatic.velocity_time_constant_s").expect("tau") - tau / 2.0).abs() < 1e-15
+        );
+        assert!((out.get("pneumatic.gain_down_m_per_s").expect("down") - 0.03).abs() < 1e-15);
+    }
 }

@@ -216,3 +216,87 @@ pub fn transmitted_torque(spec: &PlantSpec, raw: &Dataset, dt: f64) -> anyhow::R
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::Family;
+
+    fn gear(torque: bool, backlash: Option<f64>) -> PlantSpec {
+        let mut s = PlantSpec::new(Family::MotorGear);
+        if torque {
+            s.command = CommandUnit::NewtonMetre;
+        }
+        if let Some(gap) = backlash {
+            s.add_effect(EffectKind::Backlash).expect("backlash");
+            s.set("backlash.gap_rad", gap).expect("gap");
+        }
+        s
+    }
+
+    fn held(u: f64, n: usize) -> Dataset {
+        Dataset {
+            origin: "held".into(),
+            time: (0..n).map(|k| k as f64 * 1e-3).collect(),
+            input: vec![u; n],
+            output: vec![0.0; n],
+            supply: None,
+            current: None,
+        }
+    }
+
+    #[test]
+    fn contact_is_free_inside_the_gap_and_a_spring_damper_outside() {
+        let d = Drive::of(&gear(false, Some(0.01)));
+        let (kg, cg) = (d.kg, d.cg);
+        assert_eq!(d.contact(0.004, 1.0), 0.0);
+        assert_eq!(d.contact(-0.004, -1.0), 0.0);
+        assert!((d.contact(0.007, 0.0) - kg * 0.002).abs() < 1e-12);
+        assert!((d.contact(-0.007, 0.0) + kg * 0.002).abs() < 1e-12);
+        // One-sided: a contact separating fast pulls nothing.
+        assert_eq!(d.contact(0.0051, -1e3), 0.0);
+        let rigid = Drive::of(&gear(false, None));
+        assert!((rigid.contact(0.001, 0.1) - (kg * 0.001 + cg * 0.1)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_held_load_takes_the_commanded_torque_times_the_ratio() {
+        // Torque command on a load held at zero: once the gear has settled on the contact,
+        // the transmitted torque is h τ_m, with or without play.
+        for gap in [None, Some(0.01)] {
+            let spec = gear(true, gap);
+            let tau = transmitted_torque(&spec, &held(0.05, 20_000), 1e-3).expect("torque");
+            let h = p(&spec, "motor_gear.ratio");
+            let last = tau[tau.len() - 1];
+            assert!(
+                (last - h * 0.05).abs() < 1e-3 * h * 0.05,
+                "gap {gap:?}: {last} against {}",
+                h * 0.05
+            );
+        }
+    }
+
+    #[test]
+    fn a_held_load_under_a_voltage_takes_the_stall_torque() {
+        // Stalled motor: I = U / R_a, τ_c = h K_T U / R_a.
+        let spec = gear(false, None);
+        let tau = transmitted_torque(&spec, &held(2.0, 20_000), 1e-3).expect("torque");
+        let want =
+            p(&spec, "motor_gear.ratio") * p(&spec, "motor_gear.torque_constant_nm_per_a") * 2.0
+                / p(&spec, "motor_gear.resistance_ohm");
+        let last = tau[tau.len() - 1];
+        assert!((last - want).abs() < 1e-3 * want, "{last} against {want}");
+    }
+
+    #[test]
+    fn the_ratio_grows_with_one_over_cos_of_the_load_angle() {
+        let mut s = gear(false, None);
+        s.add_effect(EffectKind::VaryingRatio).expect("effect");
+        s.set("varying_ratio.max_angle_rad", 1.0).expect("limit");
+        let d = Drive::of(&s);
+        let (h, _) = d.ratio(0.5, 0.0);
+        assert!((h - d.h0 / 0.5f64.cos()).abs() < 1e-12);
+        let (h, rate) = d.ratio(1.2, 3.0);
+        assert!((h - d.h0 / 1.0f64.cos()).abs() < 1e-12 && rate == 0.0);
+    }
+}

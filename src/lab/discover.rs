@@ -1,0 +1,117 @@
+//! The user's loop in one call: diagnose, add the effect named, refit, and again, until no
+//! candidate is significant. Each rung of the ladder keeps the error before and after, the
+//! held-out drop and the evidence that named it.
+
+use serde::Serialize;
+
+use super::data::Dataset;
+use super::diagnose::{diagnose, DiagnoseOptions};
+use super::model::Model;
+use super::regress::fit_spec;
+use super::signals::Prepared;
+use crate::physics::EffectKind;
+
+/// At most this many effects are added: a ladder longer than the catalogue's families allow
+/// would be fitting noise, and each rung costs a whole diagnosis.
+pub const MAX_STEPS: usize = 6;
+
+/// One rung: the effect added and what it did.
+#[derive(Debug, Clone, Serialize)]
+pub struct Step {
+    /// Effect added.
+    pub effect: String,
+    /// NRMSE of the model before it (diagnosis criterion, free parameters refitted).
+    pub nrmse_before: f64,
+    /// NRMSE with it added and refitted.
+    pub nrmse: f64,
+    /// Relative NRMSE drop on the held-out samples.
+    pub holdout_improvement: f64,
+    /// `BIC_with - BIC_before`.
+    pub delta_bic: f64,
+    /// The effect's signature in the residual before it was added.
+    pub evidence: String,
+}
+
+/// The ladder and the final model.
+#[derive(Debug, Clone)]
+pub struct Discovery {
+    /// NRMSE of the model as given (refitted).
+    pub nrmse_base: f64,
+    /// Effects added, in order.
+    pub steps: Vec<Step>,
+    /// NRMSE of the final model (refitted).
+    pub nrmse_final: f64,
+    /// The final model, fitted.
+    pub model: Model,
+    /// True when the loop stopped because nothing more was significant (not at [`MAX_STEPS`]).
+    pub converged: bool,
+}
+
+/// Run the loop from `model`. `progress(step, effect)` is called as rungs are added.
+pub fn discover(
+    model: &Model,
+    data: &Dataset,
+    d: &Prepared,
+    opts: &DiagnoseOptions,
+    progress: &(dyn Fn(usize, &str) + Sync),
+) -> anyhow::Result<Discovery> {
+    let mut current = model.clone();
+    let mut steps = Vec::new();
+    let mut nrmse_base = None;
+    loop {
+        let dg = diagnose(&current, data, d, opts, &|_, _, _| {})?;
+        nrmse_base.get_or_insert(dg.nrmse_base);
+        let next = dg.verdict.as_ref().and_then(|v| {
+            dg.candidates
+                .iter()
+                .find(|c| &c.effect == v)
+                .map(|c| (v.clone(), c.clone()))
+        });
+        let Some((effect, c)) = next.filter(|_| steps.len() < MAX_STEPS) else {
+            let (spec, fit) = fit_spec(&current.spec, data, d, None)?;
+            let converged = dg.verdict.is_none();
+            return Ok(Discovery {
+                nrmse_base: nrmse_base.unwrap_or(dg.nrmse_base),
+                steps,
+                nrmse_final: fit.nrmse,
+                model: Model {
+                    name: current.name,
+                    spec,
+                },
+                converged,
+            });
+        };
+        let kind = EffectKind::from_name(&effect)
+            .ok_or_else(|| anyhow::anyhow!("the diagnosis named an unknown effect '{effect}'"))?;
+        progress(steps.len() + 1, &effect);
+        let mut spec = current.spec.clone();
+        spec.add_effect(kind)?;
+        let (spec, _) = fit_spec(&spec, data, d, None)?;
+        steps.push(Step {
+            effect: effect.clone(),
+            nrmse_before: dg.nrmse_base,
+            nrmse: c.nrmse,
+            holdout_improvement: c.holdout_improvement,
+            delta_bic: c.delta_bic,
+            evidence: c.evidence.clone(),
+        });
+        current = Model {
+            name: format!("{}+{effect}", current.name),
+            spec,
+        };
+    }
+}
+
+impl Discovery {
+    /// The JSON of `discover --json`: `{"nrmse_base", "steps": [{"effect", "nrmse",
+    /// "evidence", ...}], "with", "nrmse_final", ...}`.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "nrmse_base": self.nrmse_base,
+            "steps": self.steps,
+            "with": self.model.effects().iter().map(|e| e.name()).collect::<Vec<_>>(),
+            "nrmse_final": self.nrmse_final,
+            "converged": self.converged,
+        })
+    }
+}
