@@ -1327,14 +1327,26 @@ fn learned_state_survives_a_restart_and_a_bad_state_file_is_set_aside() {
     let _ = sim.0.wait();
 }
 
-/// The longest run of consecutive SYNCs whose frame `id` did not come within `deadline_s`
-/// (kernel time stamps of the capture).
+/// The longest run of consecutive SYNCs whose frame `id` did not come in the daemon's window
+/// (kernel time stamps of the capture). The window is `deadline_s` after the SYNC, but it ends
+/// at the latest 90 % of the period after the release: a SYNC that went out late (the guest
+/// held the daemon) leaves less. The release times are the SYNCs' grid: period multiples from
+/// the earliest-placed SYNC.
 fn longest_sensor_miss(cap: &Capture, id: u32, deadline_s: f64) -> usize {
+    let syncs = cap.syncs();
+    let Some(&t0) = syncs.first() else { return 0 };
+    let k = |t: f64| ((t - t0) / PERIOD).round();
+    let offset = syncs
+        .iter()
+        .map(|t| t - t0 - k(*t) * PERIOD)
+        .fold(f64::INFINITY, f64::min);
     let mut answers = cap.with_id(id).map(|(t, _)| *t).peekable();
     let (mut run, mut longest) = (0, 0);
-    for t in cap.syncs() {
+    for t in syncs {
+        let release = t0 + offset + k(t) * PERIOD;
+        let window = deadline_s.min(release + 0.9 * PERIOD - t).max(0.0);
         while answers.next_if(|a| *a < t).is_some() {}
-        let in_time = answers.peek().is_some_and(|a| *a - t <= deadline_s);
+        let in_time = answers.peek().is_some_and(|a| *a - t <= window);
         run = if in_time { 0 } else { run + 1 };
         longest = longest.max(run);
     }
