@@ -15,9 +15,9 @@ use std::time::Duration;
 use criterion::{criterion_group, criterion_main, Criterion};
 
 use actuatord::lab::data::{load, to_csv};
+use actuatord::lab::discover::discover;
 use actuatord::lab::regimes::breakdown;
 use actuatord::lab::signals::prepare;
-use actuatord::lab::discover::discover;
 use actuatord::lab::{compare, diagnose, Columns, Dataset, DiagnoseOptions, Mode, Model};
 use actuatord::physics::{EffectKind, Family, PlantSpec};
 
