@@ -12,10 +12,11 @@ use std::hint::black_box;
 use std::path::Path;
 use std::sync::LazyLock;
 
-use actuatord::canopen::{NmtState, SensorPdo};
+use actuatord::canopen::NmtState;
 use actuatord::control::*;
 use actuatord::daemon::axis::Axis;
 use actuatord::daemon::Config;
+use actuatord::device::SensorPdo;
 use actuatord::ident::{
     ArxOrder, DirectionalRegressor, DirectionalSelection, Dsfi, DsfiConfig, RecursiveEstimator,
     Rls, RlsConfig, StateVariableFilter,

@@ -110,7 +110,7 @@ fn the_committed_eds_is_the_rendered_dictionary_and_python_canopen_loads_it() {
 fn decode_names_every_frame_of_a_candump_log_and_what_does_not_decode() {
     let dir = tempfile::tempdir().expect("tempdir");
     let log = dir.path().join("capture.log");
-    let sensor = actuatord::canopen::SensorPdo {
+    let sensor = actuatord::device::SensorPdo {
         position: 0.0125,
         current_a: 1.5,
         supply_voltage_v: 24.0,

@@ -2,12 +2,13 @@
 //! threads or clocks: what the daemon does with what it hears, deterministically.
 
 use actuatord::bus::Frame;
-use actuatord::canopen::{
-    messages, Emcy, FaultResetPdo, FaultStatePdo, LoopStatusPdo, NmtCommand, SensorPdo, SetpointPdo,
-};
+use actuatord::canopen::NmtCommand;
 use actuatord::daemon::node::CycleTiming;
 use actuatord::daemon::record::{CycleRecord, Record};
 use actuatord::daemon::{Config, ControllerNode};
+use actuatord::device::{
+    messages, Emcy, FaultResetPdo, FaultStatePdo, LoopStatusPdo, SensorPdo, SetpointPdo,
+};
 use actuatord::simnode::SimNode;
 use actuatord::supervise::{FaultKind, FaultState};
 use std::path::Path;

@@ -3,8 +3,9 @@
 //! and every signal must come back as it went in.
 
 use actuatord::bus::Frame;
-use actuatord::canopen::{
-    self, messages, CommandPdo, Emcy, FaultDiagnosisPdo, FaultStatePdo, SensorPdo, TunedGainsPdo,
+use actuatord::device;
+use actuatord::device::{
+    messages, CommandPdo, Emcy, FaultDiagnosisPdo, FaultStatePdo, SensorPdo, TunedGainsPdo,
     TunedParametersPdo, SUPERVISED_FLAGGED, SUPERVISED_FLAG_NAMES, SYMPTOM_NAMES,
 };
 use actuatord::supervise::{
@@ -55,7 +56,7 @@ fn dbc_decode(db: &Dbc, frame: &Frame, signal: &str) -> f64 {
     raw as f64 * s.factor + s.offset
 }
 
-fn node_for(m: &canopen::Message) -> u8 {
+fn node_for(m: &device::Message) -> u8 {
     match m.id_base {
         messages::IdBase::Actuator => ACTUATOR,
         _ => CONTROLLER,
@@ -66,7 +67,7 @@ fn node_for(m: &canopen::Message) -> u8 {
 fn committed_dbc_is_the_rendered_table() {
     assert_eq!(
         dbc_text(),
-        canopen::dbc::render(CONTROLLER, ACTUATOR),
+        device::dbc::render(CONTROLLER, ACTUATOR),
         "dbc/actuatord.dbc is stale: run `cargo run --bin actuator -- dbc > dbc/actuatord.dbc`"
     );
 }
@@ -112,7 +113,7 @@ proptest! {
                     lo + f * (hi - lo)
                 })
                 .collect();
-            let (frame, clipped) = canopen::pack(m, node_for(m), &values);
+            let (frame, clipped) = device::pack(m, node_for(m), &values);
             prop_assert_eq!(clipped, 0);
             for (s, v) in m.signals.iter().zip(&values) {
                 let got = dbc_decode(&db, &frame, s.name);

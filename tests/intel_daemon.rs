@@ -2,14 +2,14 @@
 //! node in lock-step, every frame through the codec, deterministic for the plant files' seeds.
 
 use actuatord::bus::Frame;
-use actuatord::canopen::{
-    messages, Emcy, FaultDiagnosisPdo, FaultResetPdo, FaultStatePdo, TunedGainsPdo,
-    TunedParametersPdo,
-};
 use actuatord::daemon::config::{Config, SetpointStep};
 use actuatord::daemon::node::CycleTiming;
 use actuatord::daemon::record::{CycleRecord, Record};
 use actuatord::daemon::ControllerNode;
+use actuatord::device::{
+    messages, Emcy, FaultDiagnosisPdo, FaultResetPdo, FaultStatePdo, TunedGainsPdo,
+    TunedParametersPdo,
+};
 use actuatord::simnode::SimNode;
 use actuatord::supervise::fault_table::SHIPPED_FAULT_TABLE;
 use actuatord::supervise::{FaultState, SupervisedFault};

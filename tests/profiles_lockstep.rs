@@ -4,13 +4,13 @@
 //! `tests/vcan_profiles.rs`.
 
 use actuatord::bus::{Bus, BusError, BusEvent, Frame};
-use actuatord::canopen::profile::cia402::State;
-use actuatord::canopen::{Emcy, FaultResetPdo};
 use actuatord::daemon::config::Config;
 use actuatord::daemon::node::CycleTiming;
 use actuatord::daemon::profile_setup::{configure, SetupError};
 use actuatord::daemon::record::{CycleRecord, Record};
 use actuatord::daemon::ControllerNode;
+use actuatord::device::profile::cia402::State;
+use actuatord::device::{Emcy, FaultResetPdo};
 use actuatord::simnode::{DriveFault, Profile, ProfileNode, SimNode};
 use actuatord::supervise::FaultKind;
 use std::collections::VecDeque;

@@ -4,9 +4,10 @@
 mod sdo_common;
 
 use actuatord::bus::{Bus, BusEvent, InProcBus, InProcEndpoint};
-use actuatord::canopen::od::{index, EntrySpec, ObjectDictionary, ObjectId, Value};
+use actuatord::canopen::od::{EntrySpec, ObjectDictionary, ObjectId, Value};
 use actuatord::canopen::sdo::{encode_text, format_bytes, SdoError, SdoOutcome};
 use actuatord::canopen::{AbortCode, NmtState, SdoClient, SdoServer};
+use actuatord::device::objects::index;
 use std::time::{Duration, Instant};
 
 const NODE: u8 = 1;

@@ -2,11 +2,11 @@
 //! the simulated node frame by frame, the supply moved by faults as a cranking dip moves it.
 
 use actuatord::bus::Frame;
-use actuatord::canopen::{messages, Emcy, FaultStatePdo};
 use actuatord::daemon::node::CycleTiming;
 use actuatord::daemon::record::{CycleRecord, Record};
 use actuatord::daemon::{Config, ControllerNode};
 use actuatord::defaults::{self, Source};
+use actuatord::device::{messages, Emcy, FaultStatePdo};
 use actuatord::physics::{Family, ScheduledFault};
 use actuatord::simnode::SimNode;
 use actuatord::supervise::{FaultKind, FaultState};

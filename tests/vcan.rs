@@ -8,7 +8,7 @@
 mod robust_common;
 
 use actuatord::bus::{parse_candump_line, Frame};
-use actuatord::canopen::{Emcy, FaultStatePdo, LoopStatusPdo, SensorPdo};
+use actuatord::device::{Emcy, FaultStatePdo, LoopStatusPdo, SensorPdo};
 use actuatord::supervise::{FaultKind, FaultState};
 use can_dbc::{Dbc, MessageId};
 use std::path::{Path, PathBuf};
@@ -528,7 +528,7 @@ fn daemon_notifies_systemd_stops_safely_and_a_killed_recording_stays_readable() 
         .iter()
         .rev()
         .find(|f| f.id() == 0x210)
-        .map(|f| actuatord::canopen::CommandPdo::decode(f).expect("command decodes"))
+        .map(|f| actuatord::device::CommandPdo::decode(f).expect("command decodes"))
         .expect("commands captured");
     assert_eq!(
         last_command.voltage_v, 0.0,
@@ -1230,9 +1230,9 @@ fn a_second_bus_gets_its_own_cycle_thread() {
 #[test]
 #[ignore = "needs vcan0, candump and cansend: run through scripts/vcan-run (scripts/test does)"]
 fn learned_state_survives_a_restart_and_a_bad_state_file_is_set_aside() {
-    use actuatord::canopen::messages::TUNED_PARAMETERS;
-    use actuatord::canopen::TunedParametersPdo;
     use actuatord::daemon::state;
+    use actuatord::device::messages::TUNED_PARAMETERS;
+    use actuatord::device::TunedParametersPdo;
 
     let dir = tempfile::tempdir().expect("tempdir");
     let config = dir.path().join("kept.toml");
@@ -1563,9 +1563,7 @@ fn the_interface_goes_down_and_up_while_the_daemon_runs() {
     let commands_between = cap
         .with_id(0x210)
         .filter(|(t, _)| *t > back_t && *t < start_t)
-        .filter(|(_, f)| {
-            actuatord::canopen::CommandPdo::decode(f).is_ok_and(|c| c.voltage_v != 0.0)
-        })
+        .filter(|(_, f)| actuatord::device::CommandPdo::decode(f).is_ok_and(|c| c.voltage_v != 0.0))
         .count();
     assert_eq!(
         commands_between, 0,

@@ -9,7 +9,7 @@
 //! `cargo test`; `scripts/test` runs it with `--ignored`.
 
 use actuatord::bus::{parse_candump_line, Frame};
-use actuatord::canopen::Emcy;
+use actuatord::device::Emcy;
 use actuatord::supervise::FaultKind;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};

@@ -7,9 +7,9 @@
 //! A benchmark, not a test: it prints figures (the README keeps them).
 
 use crate::bus::{Bus, BusEvent, Frame, SocketCanBus};
-use crate::canopen::Emcy;
 use crate::daemon::recorder::read_cycles;
 use crate::daemon::Config;
+use crate::device::Emcy;
 use serde::Serialize;
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -183,7 +183,7 @@ struct EmcyCounts {
 
 /// Listens on its own socket and counts the controller's EMCYs; rides out the outages.
 fn listen(iface: String, node_id: u8, stop: Arc<AtomicBool>, counts: Arc<Mutex<EmcyCounts>>) {
-    let emcy_id = crate::canopen::messages::EMCY.cob_id(node_id);
+    let emcy_id = crate::device::messages::EMCY.cob_id(node_id);
     let mut bus: Option<SocketCanBus> = None;
     while !stop.load(Ordering::Relaxed) {
         let Some(b) = bus.as_mut() else {
@@ -353,7 +353,7 @@ fn soak(
 
     let end = started + Duration::from_secs_f64(opts.minutes * 60.0);
     let reset = Frame::new(
-        crate::canopen::messages::FAULT_RESET.cob_id(node_id),
+        crate::device::messages::FAULT_RESET.cob_id(node_id),
         &[config.axis.first().map_or(16, |a| a.actuator_node_id)],
     )?;
     let nmt_start = Frame::new(0x000, &[0x01, node_id])?;

@@ -596,7 +596,7 @@ fn run(args: Args) -> anyhow::Result<()> {
         } => {
             print!(
                 "{}",
-                actuatord::canopen::dbc::render(controller_node, actuator_node)
+                actuatord::device::dbc::render(controller_node, actuator_node)
             );
             Ok(())
         }
@@ -622,7 +622,7 @@ fn decode(log: &Path, controller_node: u8, actuator_node: u8) -> anyhow::Result<
         let text = match actuatord::bus::parse_candump_line(&line) {
             Err(e) => format!("{line} :: not decoded: {e}"),
             Ok(rec) => {
-                match actuatord::canopen::decode_frame(&rec.frame, controller_node, actuator_node) {
+                match actuatord::device::decode_frame(&rec.frame, controller_node, actuator_node) {
                     None => format!("{line} :: id not in the protocol"),
                     Some((m, Err(len))) => {
                         format!(

@@ -2,13 +2,13 @@
 
 mod candump;
 mod fault;
-mod frame;
+
 mod inproc;
 mod socketcan_bus;
 
+pub use crate::canopen::{Frame, FrameError};
 pub use candump::{parse_candump_line, write_candump_line, CandumpError, CandumpRecord};
 pub use fault::BusFault;
-pub use frame::{Frame, FrameError};
 pub use inproc::{InProcBus, InProcEndpoint};
 pub use socketcan_bus::{SocketCanBus, RECEIVE_BUFFER_BYTES};
 

@@ -1,8 +1,18 @@
 //! NMT (network management): node states, commands, heartbeat and SYNC (CiA 301 style).
 
-use super::codec::{check_length, DecodeError};
-use super::messages::{HEARTBEAT_CONTROLLER, NMT, SYNC};
-use crate::bus::Frame;
+use super::{DecodeError, Frame};
+
+/// COB-ID of NMT node control (CiA 301 §7.2.8.3.1): a broadcast, fixed id.
+pub const NMT_COB_ID: u32 = 0x000;
+/// COB-ID of SYNC (CiA 301 §7.2.5): a broadcast, fixed id.
+pub const SYNC_COB_ID: u32 = 0x080;
+/// Function code of the heartbeat (CiA 301 §7.2.8.3.2); the COB-ID adds the producer's node id.
+pub const HEARTBEAT_FUNCTION_CODE: u32 = 0x700;
+
+/// Frame names in decode errors, the same as in the message tables of the profiles.
+const NMT_NAME: &str = "nmt";
+const SYNC_NAME: &str = "sync";
+const HEARTBEAT_NAME: &str = "heartbeat";
 
 /// A node's NMT state, as carried in its heartbeat.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -89,15 +99,15 @@ impl NmtCommand {
 
     /// The command frame; `node_id` 0 addresses every node.
     pub fn encode(self, node_id: u8) -> Frame {
-        frame(NMT.cob_id(0), &[self.code(), node_id])
+        frame(NMT_COB_ID, &[self.code(), node_id])
     }
 
     /// Decode an NMT frame into (command, addressed node id).
     pub fn decode(frame: &Frame) -> Result<(Self, u8), DecodeError> {
-        check_length(&NMT, frame)?;
+        DecodeError::check_length(NMT_NAME, frame, 2)?;
         let d = frame.data();
         let command = Self::from_code(d[0]).ok_or(DecodeError::BadValue {
-            name: NMT.name,
+            name: NMT_NAME,
             id: frame.id(),
             signal: "nmt_command",
             value: i64::from(d[0]),
@@ -114,25 +124,22 @@ impl NmtCommand {
 /// Heartbeat frame of `node_id` in `state`.
 pub fn encode_heartbeat(node_id: u8, state: NmtState) -> Frame {
     frame(
-        HEARTBEAT_CONTROLLER.function_code + u32::from(node_id),
+        HEARTBEAT_FUNCTION_CODE + u32::from(node_id),
         &[state.code()],
     )
 }
 
 /// Decode a heartbeat: (node id, state).
 pub fn decode_heartbeat(frame: &Frame) -> Result<(u8, NmtState), DecodeError> {
-    check_length(&HEARTBEAT_CONTROLLER, frame)?;
+    DecodeError::check_length(HEARTBEAT_NAME, frame, 1)?;
     let code = frame.data()[0];
     let state = NmtState::from_code(code).ok_or(DecodeError::BadValue {
-        name: HEARTBEAT_CONTROLLER.name,
+        name: HEARTBEAT_NAME,
         id: frame.id(),
         signal: "nmt_state",
         value: i64::from(code),
     })?;
-    Ok((
-        (frame.id() - HEARTBEAT_CONTROLLER.function_code) as u8,
-        state,
-    ))
+    Ok(((frame.id() - HEARTBEAT_FUNCTION_CODE) as u8, state))
 }
 
 /// Is `frame` a heartbeat (COB-ID 0x701..=0x77F)?
@@ -166,7 +173,7 @@ impl SyncCounter {
     }
 
     pub fn encode(self) -> Frame {
-        frame(SYNC.cob_id(0), &[self.0])
+        frame(SYNC_COB_ID, &[self.0])
     }
 }
 
@@ -176,7 +183,7 @@ pub fn decode_sync(frame: &Frame) -> Result<Option<u8>, DecodeError> {
         0 => Ok(None),
         1 => Ok(Some(frame.data()[0])),
         got => Err(DecodeError::WrongLength {
-            name: SYNC.name,
+            name: SYNC_NAME,
             id: frame.id(),
             got,
             expected: 1,

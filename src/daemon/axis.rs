@@ -8,14 +8,15 @@
 
 use super::config::{cycles, AxisConfig, CommandKind, ScheduleVariable, SetpointStep};
 use super::learned::{AxisLearned, OperatingPointMemory};
-use crate::canopen::{
-    Emcy, FaultDiagnosisPdo, FaultStatePdo, NmtState, SensorPdo, TunedGainsPdo, TunedParametersPdo,
-};
+use crate::canopen::NmtState;
 use crate::control::robust::StateSpaceController;
 use crate::control::{
     AdaptiveFriction, BandStatus, ControllerError, DiscreteController, Dither, FrictionFeedForward,
     GainSchedule, GainSource, LearnedTable, LinearController, NonlinearCorrection, OperatingPoint,
     ParamError, PneumaticAdaptive, PneumaticStep, SupplyBand,
+};
+use crate::device::{
+    Emcy, FaultDiagnosisPdo, FaultStatePdo, SensorPdo, TunedGainsPdo, TunedParametersPdo,
 };
 use crate::supervise::{
     diagnose, symptoms, Band, DiagnosedFault, DisturbanceObserver, EstimatorHealth, FaultMachine,

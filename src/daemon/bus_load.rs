@@ -1,7 +1,7 @@
 //! The bus load the configuration asks for, computed before the daemon starts.
 
 use super::config::{CommandKind, Config};
-use crate::canopen::messages::{
+use crate::device::messages::{
     Message, COMMAND, FAULT_DIAGNOSIS, FAULT_STATE, HEARTBEAT_ACTUATOR, HEARTBEAT_CONTROLLER,
     LOOP_STATUS, SENSOR, SUPPLY_PRESSURE, SYNC, TUNED_GAINS, TUNED_PARAMETERS,
 };

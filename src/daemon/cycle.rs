@@ -482,8 +482,9 @@ pub fn run_cycle_with(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::canopen::{Emcy, NmtState};
+    use crate::canopen::NmtState;
     use crate::daemon::Config;
+    use crate::device::Emcy;
     use std::path::Path;
     use std::sync::atomic::AtomicI32;
     use std::sync::{Arc, Mutex};

@@ -5,14 +5,13 @@ use super::axis::AxisStep;
 use super::config::{AxisConfig, CommandKind, Config, FrictionCompensationConfig};
 use super::learned::AxisLearned;
 use super::record::CycleRecord;
-use crate::canopen::od::axis_intelligence::{
+use crate::canopen::od::{BuildError, Handle, PendingWrite};
+use crate::canopen::{ObjectDictionary, Value};
+use crate::device::objects::axis_intelligence::{
     symptom_bits, AdaptiveFrictionParameters, EstimationParameters, IntelligenceParameters,
     ObserverParameters, ScheduleParameters, BAND_NAMES, ESTIMATE_NAMES, NOMINAL_NAMES,
 };
-use crate::canopen::od::{
-    daemon_dictionary, AxisParameters, BuildError, DeviceParameters, Handle, PendingWrite,
-};
-use crate::canopen::{ObjectDictionary, Value};
+use crate::device::objects::{daemon_dictionary, AxisParameters, DeviceParameters};
 
 /// One entry per configuration value the dictionary carries.
 pub fn axis_parameters(a: &AxisConfig) -> AxisParameters {

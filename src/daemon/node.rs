@@ -8,12 +8,15 @@ use super::profile_link::{NodeLayout, ProfileLink, Received};
 use super::record::{CycleRecord, Event, Record};
 use crate::bus::{BusFault, Frame};
 use crate::canopen::{
-    decode_heartbeat, decode_sync, encode_heartbeat, is_heartbeat, messages, CommandPdo, Emcy,
-    FaultResetPdo, LoopStatusPdo, NmtCommand, NmtState, SensorPdo, SetpointPdo, SupplyPressurePdo,
+    decode_heartbeat, decode_sync, encode_heartbeat, is_heartbeat, NmtCommand, NmtState,
     SyncCounter,
 };
 use crate::canopen::{ObjectDictionary, SdoServer};
 use crate::control::{BandStatus, ControllerError};
+use crate::device::{
+    messages, CommandPdo, Emcy, FaultResetPdo, LoopStatusPdo, SensorPdo, SetpointPdo,
+    SupplyPressurePdo,
+};
 use crate::supervise::{FaultKind, FaultState};
 use hdrhistogram::Histogram;
 
@@ -54,41 +57,7 @@ pub struct CycleTiming {
     pub previous_cycle_latency_s: f64,
 }
 
-/// The stages of an axis' cycle, timed separately when the runtime gives the node a clock.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Stage {
-    Scheduling,
-    Control,
-    Estimation,
-    Observer,
-    Supervision,
-    EncodeSend,
-}
-
-/// Number of [`Stage`]s.
-pub const STAGES: usize = 6;
-
-impl Stage {
-    pub const ALL: [Stage; STAGES] = [
-        Stage::Scheduling,
-        Stage::Control,
-        Stage::Estimation,
-        Stage::Observer,
-        Stage::Supervision,
-        Stage::EncodeSend,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Stage::Scheduling => "scheduling",
-            Stage::Control => "control",
-            Stage::Estimation => "estimation",
-            Stage::Observer => "observer",
-            Stage::Supervision => "supervision",
-            Stage::EncodeSend => "encode_send",
-        }
-    }
-}
+pub use crate::recording::{Stage, STAGES};
 
 /// Splits a cycle into stage durations with the runtime's clock; does nothing without one.
 struct StageTimer {
@@ -1093,7 +1062,7 @@ impl ControllerNode {
     pub fn shutdown(&mut self, send: &mut dyn FnMut(&Frame)) {
         for link in self.links.iter_mut().flatten() {
             // Power stage off (disable voltage): the drive holds no torque once we are gone.
-            link.set_target(crate::canopen::profile::cia402::Target::Disabled);
+            link.set_target(crate::device::profile::cia402::Target::Disabled);
         }
         self.send_safe_commands(send);
         if self.links.iter().any(Option::is_some) {
@@ -1147,7 +1116,7 @@ fn cycle_record(
         fault_state: step.supervision.state.code(),
         fault_flags: step.supervision.latched.0,
         supervised_faults: step.model.machine.latched.0,
-        diagnosed_fault: crate::canopen::diagnosed_fault_code(step.model.diagnosed_fault),
+        diagnosed_fault: crate::device::diagnosed_fault_code(step.model.diagnosed_fault),
         diagnosis_confidence: step.model.confidence,
         symptoms: step.model.symptoms.map(|s| match s {
             crate::supervise::Symptom::Minus => -1,

@@ -3,9 +3,9 @@
 //! the node at start-up.
 
 use super::config::{AxisConfig, CommandKind};
-use crate::canopen::profile::cia401::{self, Scaling};
-use crate::canopen::profile::cia402::{self, Mode};
-use crate::canopen::profile::mapping::{Direction, MappedObject, Pdo};
+use crate::device::profile::cia401::{self, Scaling};
+use crate::device::profile::cia402::{self, Mode};
+use crate::device::profile::mapping::{Direction, MappedObject, Pdo};
 use serde::Deserialize;
 
 /// What the axis' actuator node speaks.

@@ -5,12 +5,12 @@
 use super::config::{AxisConfig, Config};
 use super::profile_config::ProfileKind;
 use super::profile_setup::planned_layout;
-use crate::canopen::dbc::{render_bus, BusMessage, BusSignal};
-use crate::canopen::messages::NODE_CONTROLLER;
 use crate::canopen::od::ObjectId;
-use crate::canopen::profile::cia401;
-use crate::canopen::profile::cia402;
-use crate::canopen::profile::mapping::Direction;
+use crate::device::dbc::{render_bus, BusMessage, BusSignal};
+use crate::device::messages::NODE_CONTROLLER;
+use crate::device::profile::cia401;
+use crate::device::profile::cia402;
+use crate::device::profile::mapping::Direction;
 
 fn signal(name: &str, start_bit: u16, bits: u8, signed: bool, comment: &str) -> BusSignal {
     BusSignal {

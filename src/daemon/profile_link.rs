@@ -5,10 +5,10 @@
 use super::config::AxisConfig;
 use super::profile_config::{drive_mode, ProfileKind};
 use crate::bus::Frame;
-use crate::canopen::profile::cia401::{self, Scaling};
-use crate::canopen::profile::cia402::{self, Mode, PowerDriver, State, Target};
-use crate::canopen::profile::mapping::{sign_extend, to_raw_signed, Direction, Pdo};
-use crate::canopen::SensorPdo;
+use crate::device::profile::cia401::{self, Scaling};
+use crate::device::profile::cia402::{self, Mode, PowerDriver, State, Target};
+use crate::device::profile::mapping::{sign_extend, to_raw_signed, Direction, Pdo};
+use crate::device::SensorPdo;
 
 /// Generic error (CiA 301): a drive in fault whose EMCY was not seen.
 pub const UNKNOWN_DRIVE_ERROR: u16 = 0x1000;

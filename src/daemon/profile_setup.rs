@@ -9,12 +9,12 @@ use super::profile_config::{desired_pdos, drive_mode, ProfileKind};
 use super::profile_link::NodeLayout;
 use crate::bus::{Bus, BusError, BusEvent};
 use crate::canopen::od::ObjectId;
-use crate::canopen::profile::cia401;
-use crate::canopen::profile::cia402;
-use crate::canopen::profile::eds::pdos_from_eds;
-use crate::canopen::profile::mapping::{Direction, Pdo};
 use crate::canopen::sdo::{AbortCode, SdoClient, SdoError, SdoOutcome};
 use crate::canopen::NmtCommand;
+use crate::device::profile::cia401;
+use crate::device::profile::cia402;
+use crate::device::profile::eds::pdos_from_eds;
+use crate::device::profile::mapping::{Direction, Pdo};
 use std::time::{Duration, Instant};
 
 /// SDO answer timeout for each transfer once the node has answered once.

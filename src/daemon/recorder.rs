@@ -12,13 +12,7 @@ use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
-/// MCAP topic of the per-cycle records.
-pub const CYCLE_TOPIC: &str = "/actuatord/cycle";
-/// MCAP topic of the events.
-pub const EVENT_TOPIC: &str = "/actuatord/events";
-
-/// MCAP topic of the raw CAN frames.
-pub const CAN_TOPIC: &str = "/actuatord/can";
+pub use crate::recording::{read_cycles, RecorderError, CAN_TOPIC, CYCLE_TOPIC, EVENT_TOPIC};
 
 /// JSON schema of a cycle record, so MCAP viewers can show field types and units.
 const CYCLE_SCHEMA: &str = r#"{
@@ -132,14 +126,6 @@ pub struct RecorderReport {
     pub events: u64,
     pub frames: u64,
     pub dropped: u64,
-}
-
-#[derive(Debug, thiserror::Error)]
-pub enum RecorderError {
-    #[error("recording {path}: {message}")]
-    File { path: PathBuf, message: String },
-    #[error("recorder thread panicked")]
-    Panicked,
 }
 
 /// The writer thread; join it after the cycle ended and every sink is dropped.
@@ -313,26 +299,6 @@ impl McapOut {
         self.writer.finish().map_err(|e| self.err(e))?;
         Ok(self.path)
     }
-}
-
-/// Read the cycle records of an MCAP recording back, in file order.
-pub fn read_cycles(path: &Path) -> Result<Vec<CycleRecord>, RecorderError> {
-    let err = |message: String| RecorderError::File {
-        path: path.to_path_buf(),
-        message,
-    };
-    let bytes = std::fs::read(path).map_err(|e| err(e.to_string()))?;
-    let stream = mcap::MessageStream::new(&bytes).map_err(|e| err(e.to_string()))?;
-    let mut cycles = Vec::new();
-    for (i, message) in stream.enumerate() {
-        let message = message.map_err(|e| err(format!("message {i}: {e}")))?;
-        if message.channel.topic == CYCLE_TOPIC {
-            let record = serde_json::from_slice(&message.data)
-                .map_err(|e| err(format!("message {i} on {CYCLE_TOPIC}: {e}")))?;
-            cycles.push(record);
-        }
-    }
-    Ok(cycles)
 }
 
 fn log_event(e: &Event) {

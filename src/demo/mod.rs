@@ -2,12 +2,12 @@
 //! in-process bus. A scripted run of setpoint steps and injected faults, then a short summary.
 
 use crate::bus::InProcBus;
-use crate::canopen::{messages, Emcy};
 use crate::daemon::config::SetpointStep;
 use crate::daemon::record::{CycleRecord, Record};
 use crate::daemon::recorder::{read_cycles, RecordSink, Recorder, RecorderError};
 use crate::daemon::{run_cycle, ControllerNode, CycleReport, CycleSettings};
 use crate::defaults::Source;
+use crate::device::{messages, Emcy};
 use crate::physics::{PhysicsError, ScheduledFault};
 use crate::simnode::{run_sim_node, SimEvent, SimNode};
 use crate::supervise::{FaultFlags, FaultKind, FaultState, SupervisedFault};

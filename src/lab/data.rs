@@ -551,8 +551,8 @@ fn parse_field(raw: &str) -> Result<f64, FieldFault> {
 /// otherwise the voltage.
 pub fn load_mcap(path: &Path) -> Result<Dataset, DataError> {
     let origin = path.display().to_string();
-    let cycles = crate::daemon::recorder::read_cycles(path)
-        .map_err(|e| DataError(format!("{origin}: {e}")))?;
+    let cycles =
+        crate::recording::read_cycles(path).map_err(|e| DataError(format!("{origin}: {e}")))?;
     if cycles.is_empty() {
         return Err(DataError(format!(
             "{origin}: no messages on /actuatord/cycle"

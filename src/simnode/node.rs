@@ -3,10 +3,8 @@
 
 use super::profile::ProfileNode;
 use crate::bus::Frame;
-use crate::canopen::{
-    decode_sync, encode_heartbeat, messages, CommandPdo, NmtCommand, NmtState, SensorPdo,
-    SupplyPressurePdo,
-};
+use crate::canopen::{decode_sync, encode_heartbeat, NmtCommand, NmtState};
+use crate::device::{messages, CommandPdo, SensorPdo, SupplyPressurePdo};
 use crate::physics::{Family, Plant, ScheduledFault};
 
 /// What the node did, for the runtime to log.

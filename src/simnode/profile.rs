@@ -5,13 +5,13 @@
 
 use crate::bus::Frame;
 use crate::canopen::od::{EntrySpec, ObjectDictionary, ObjectId};
-use crate::canopen::profile::cia401::{self, Scaling};
-use crate::canopen::profile::cia402::{self, DriveStateMachine, Mode, State};
-use crate::canopen::profile::mapping::{
-    abort, Direction, MappedObject, Pdo, COB_ID_INVALID, TRANSMISSION_EVENT_PROFILE,
-};
 use crate::canopen::sdo::{self, AbortCode, SdoServer};
 use crate::canopen::{DataType, NmtState, Value};
+use crate::device::profile::cia401::{self, Scaling};
+use crate::device::profile::cia402::{self, DriveStateMachine, Mode, State};
+use crate::device::profile::mapping::{
+    abort, Direction, MappedObject, Pdo, COB_ID_INVALID, TRANSMISSION_EVENT_PROFILE,
+};
 use crate::physics::Plant;
 use std::str::FromStr;
 
@@ -505,7 +505,7 @@ impl ProfileNode {
             let raw = match t {
                 DataType::Integer8 | DataType::Integer16 | DataType::Integer32 => {
                     let bits = (t.size().unwrap_or(4) * 8) as u8;
-                    crate::canopen::profile::mapping::to_raw_signed(v, bits)
+                    crate::device::profile::mapping::to_raw_signed(v, bits)
                 }
                 _ => v.max(0.0).round() as u64,
             };
@@ -947,7 +947,7 @@ impl ProfileNode {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::canopen::profile::mapping::sign_extend;
+    use crate::device::profile::mapping::sign_extend;
 
     fn sdo_write(n: &mut ProfileNode, index: u16, sub: u8, value: u32, size: usize) -> Frame {
         let mut d = [0u8; 8];
@@ -1026,7 +1026,7 @@ mod tests {
         let rpdo = |cw: u64, torque: f64| {
             p.pack(|id| match id.index {
                 cia402::CONTROLWORD => cw,
-                _ => crate::canopen::profile::mapping::to_raw_signed(torque, 16),
+                _ => crate::device::profile::mapping::to_raw_signed(torque, 16),
             })
         };
         let mut frames = vec![];

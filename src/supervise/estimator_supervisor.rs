@@ -10,8 +10,8 @@
 //! - plausibility: every parameter inside its band `[θ_min, θ_max]`, else implausible, and the
 //!   caller falls back to its scheduled parameters.
 
-use crate::control::ParamError;
 use crate::ident::RecursiveUpdate;
+use crate::param::ParamError;
 
 /// Largest number of supervised parameters.
 pub const MAX_SUPERVISED: usize = 4;

@@ -169,13 +169,4 @@ mod tests {
         let before = FaultFlags(FaultKind::FollowingError.bit());
         assert_eq!(f.added_since(before).to_string(), "sensor_timeout");
     }
-
-    #[test]
-    fn bus_names_match_the_protocol_table() {
-        let names: Vec<_> = FaultKind::ALL
-            .iter()
-            .map(|k| format!("fault_{}", k.name()))
-            .collect();
-        assert_eq!(names, crate::canopen::FAULT_FLAG_NAMES);
-    }
 }

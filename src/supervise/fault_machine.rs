@@ -6,7 +6,7 @@
 //! while present but not yet latched it is pending and the state is at least `Warning`. The state
 //! is the most severe reaction among the latched faults; it never falls back on its own.
 
-use crate::control::ParamError;
+use crate::param::ParamError;
 
 /// Faults found by the model-based supervision (and the limit checks as one entry).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]

@@ -17,7 +17,7 @@
 
 use nalgebra::{DMatrix, Matrix4, Vector4};
 
-use crate::control::ParamError;
+use crate::param::ParamError;
 
 /// Plant parameters and design of [`DisturbanceObserver`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -124,7 +124,7 @@ impl DisturbanceObserver {
     /// Discretises the model and places the poles; fails for non-physical parameters or an
     /// unobservable model.
     pub fn new(config: ObserverConfig) -> Result<Self, ParamError> {
-        use crate::control::ParamError as E;
+        use crate::param::ParamError as E;
         for (name, v) in [
             ("period_s", config.period_s),
             ("mass_kg", config.mass_kg),

@@ -41,8 +41,8 @@
 //! only when the nearest row is unique and at most `max_distance` entries away.
 
 use super::fault_table::FaultSymptomTable;
-use crate::control::ParamError;
 use crate::ident::{Dsfi, DsfiConfig, RecursiveEstimator, StateVariableFilter};
+use crate::param::ParamError;
 
 /// Number of physical parameters.
 pub const PHYSICAL_PARAMS: usize = 6;

@@ -23,16 +23,11 @@
 //! are inline, and the staging area has one slot per writable entry (a second write to the same
 //! entry before the boundary replaces the first).
 
-pub mod axis_intelligence;
 mod builder;
-mod daemon_objects;
 mod table;
 mod value;
 
 pub use builder::{BuildError, EntrySpec, ObjectDictionaryBuilder};
-pub use daemon_objects::{
-    consumer_heartbeat_entry, daemon_dictionary, index, AxisParameters, DeviceParameters, MAX_AXES,
-};
 pub use table::markdown_table;
 pub use value::{
     format_hex, parse_hex, DataType, Value, ValueError, VisibleString, STRING_CAPACITY,

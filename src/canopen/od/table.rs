@@ -39,29 +39,3 @@ pub fn markdown_table(od: &ObjectDictionary) -> String {
 fn cell(text: &str) -> String {
     text.replace('|', "\\|")
 }
-
-#[cfg(test)]
-mod tests {
-    use super::super::{daemon_dictionary, AxisParameters, DeviceParameters};
-    use super::*;
-
-    #[test]
-    fn one_row_per_entry_with_a_header() {
-        let od = daemon_dictionary(&DeviceParameters::default(), &[AxisParameters::default()])
-            .expect("defaults fit the table");
-        let table = markdown_table(&od);
-        let rows = table.lines().count();
-        let subzero = od
-            .objects()
-            .iter()
-            .filter(|o| o.kind != super::super::ObjectKind::Var)
-            .count();
-        assert_eq!(rows, 2 + od.entries().len() - subzero);
-        assert!(
-            table.contains("| 2001:01 | axis0_controller | q0_per_m | REAL64 | V/m | rw-preop |")
-        );
-        assert!(table
-            .lines()
-            .all(|l| l.matches(" | ").count() == 9 || l.starts_with("|---")));
-    }
-}

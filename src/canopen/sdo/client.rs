@@ -12,8 +12,8 @@ use super::{
     abort_frame, ccs, header, multiplexer, request_cob_id, response_cob_id, scs, sdo_frame,
     AbortCode, DEFAULT_TIMEOUT_S, TOGGLE,
 };
-use crate::bus::Frame;
 use crate::canopen::od::{format_hex, parse_hex, DataType, ObjectId, Value, ValueError};
+use crate::canopen::Frame;
 
 /// How a transfer ended badly.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]

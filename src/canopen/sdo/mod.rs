@@ -19,7 +19,7 @@ pub use abort::AbortCode;
 pub use client::{encode_text, format_bytes, SdoClient, SdoError, SdoOutcome};
 pub use server::SdoServer;
 
-use crate::bus::Frame;
+use crate::canopen::Frame;
 
 /// Function code of client → server SDO frames (RSDO of the server).
 pub const SDO_RX_FUNCTION: u32 = 0x600;

@@ -9,9 +9,9 @@ use super::{
     abort_frame, ccs, header, multiplexer, response_cob_id, scs, sdo_frame, AbortCode,
     DEFAULT_TIMEOUT_S, SEGMENT_BUFFER, TOGGLE,
 };
-use crate::bus::Frame;
 use crate::canopen::nmt::NmtState;
 use crate::canopen::od::{ObjectDictionary, ObjectId};
+use crate::canopen::Frame;
 
 /// A segmented transfer in progress.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -15,8 +15,8 @@
 //! Entry names are the config keys (and, for results, the names of the state file and the
 //! recording), unique within an axis.
 
-use super::{ObjectDictionaryBuilder, Value};
 use crate::canopen::od::EntrySpec;
+use crate::canopen::od::{ObjectDictionaryBuilder, Value};
 
 /// Offsets inside an axis block (see `daemon_objects::index`).
 pub const ADAPTIVE_FRICTION: u16 = 0x06;

@@ -3,7 +3,8 @@
 //! `dbc/actuatord.dbc` is rendered from these tables (`actuator dbc`), and a test decodes codec
 //! output with that file, so code and DBC cannot drift apart.
 
-use super::signal::Signal;
+use crate::canopen::nmt::{HEARTBEAT_FUNCTION_CODE, NMT_COB_ID, SYNC_COB_ID};
+use crate::canopen::Signal;
 
 /// Whose node id is added to the function code to give the COB-ID.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -580,7 +581,7 @@ const LOOP_STATUS_SIGNALS: [Signal; 5] = [
 
 pub const NMT: Message = Message {
     name: "nmt",
-    function_code: 0x000,
+    function_code: NMT_COB_ID,
     id_base: IdBase::Fixed,
     transmitter: NODE_CONTROLLER,
     dlc: 2,
@@ -590,7 +591,7 @@ pub const NMT: Message = Message {
 
 pub const SYNC: Message = Message {
     name: "sync",
-    function_code: 0x080,
+    function_code: SYNC_COB_ID,
     id_base: IdBase::Fixed,
     transmitter: NODE_CONTROLLER,
     dlc: 1,
@@ -710,7 +711,7 @@ pub const FAULT_RESET: Message = Message {
 
 pub const HEARTBEAT_CONTROLLER: Message = Message {
     name: "heartbeat_controller",
-    function_code: 0x700,
+    function_code: HEARTBEAT_FUNCTION_CODE,
     id_base: IdBase::Controller,
     transmitter: NODE_CONTROLLER,
     dlc: 1,
@@ -720,7 +721,7 @@ pub const HEARTBEAT_CONTROLLER: Message = Message {
 
 pub const HEARTBEAT_ACTUATOR: Message = Message {
     name: "heartbeat_actuator",
-    function_code: 0x700,
+    function_code: HEARTBEAT_FUNCTION_CODE,
     id_base: IdBase::Actuator,
     transmitter: NODE_ACTUATOR,
     dlc: 1,
@@ -782,5 +783,14 @@ mod tests {
                 used |= mask << s.start_bit;
             }
         }
+    }
+
+    #[test]
+    fn bus_names_match_the_protocol_table() {
+        let names: Vec<_> = crate::supervise::FaultKind::ALL
+            .iter()
+            .map(|k| format!("fault_{}", k.name()))
+            .collect();
+        assert_eq!(names, FAULT_FLAG_NAMES);
     }
 }

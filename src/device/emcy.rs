@@ -5,7 +5,7 @@ use super::messages::EMCY;
 use super::pdo::{
     diagnosed_fault_code, diagnosed_fault_from_code, supervised_from, supervised_values,
 };
-use crate::bus::Frame;
+use crate::canopen::Frame;
 use crate::supervise::{FaultFlags, FaultKind, FaultState, SupervisedFault, SupervisedFaults};
 
 /// CiA 301 "error reset or no error".

@@ -2,8 +2,8 @@
 //! PDO carries, the SDO writes that configure it on a node in the order CiA 301 prescribes, the
 //! reads that check it, and the packing of its frame.
 
-use crate::bus::Frame;
 use crate::canopen::od::ObjectId;
+use crate::canopen::Frame;
 
 /// RPDO communication parameters, 1400h + n - 1.
 pub const RPDO_COMMUNICATION: u16 = 0x1400;

@@ -22,7 +22,9 @@
 //! uses their defaults.
 
 use super::axis_intelligence::{intelligence_objects, IntelligenceParameters};
-use super::{BuildError, EntrySpec, ObjectDictionary, ObjectDictionaryBuilder, ObjectId, Value};
+use crate::canopen::od::{
+    BuildError, EntrySpec, ObjectDictionary, ObjectDictionaryBuilder, ObjectId, Value,
+};
 
 /// Manufacturer blocks are 100h apart from 2000h; 2F00h is node-wide, so 15 axes fit.
 pub const MAX_AXES: usize = 15;

@@ -1,7 +1,6 @@
 //! What the cycle reports: one record per axis and cycle, and events. Plain `Copy` data, so the
 //! real-time thread hands them over without allocating; the writer thread formats them.
 
-use super::node::STAGES;
 use crate::bus::{BusErrorFrame, BusFault, Frame};
 use crate::canopen::{DecodeError, NmtState};
 use crate::supervise::{FaultKind, FaultState, SupervisedFault};
@@ -383,6 +382,42 @@ impl std::fmt::Display for Event {
                 "t={t_s:.4}s cycle {cycle} overran its period by {:.3} ms",
                 late_s * 1e3
             ),
+        }
+    }
+}
+
+/// The stages of an axis' cycle, timed separately when the runtime gives the node a clock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    Scheduling,
+    Control,
+    Estimation,
+    Observer,
+    Supervision,
+    EncodeSend,
+}
+
+/// Number of [`Stage`]s.
+pub const STAGES: usize = 6;
+
+impl Stage {
+    pub const ALL: [Stage; STAGES] = [
+        Stage::Scheduling,
+        Stage::Control,
+        Stage::Estimation,
+        Stage::Observer,
+        Stage::Supervision,
+        Stage::EncodeSend,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Scheduling => "scheduling",
+            Stage::Control => "control",
+            Stage::Estimation => "estimation",
+            Stage::Observer => "observer",
+            Stage::Supervision => "supervision",
+            Stage::EncodeSend => "encode_send",
         }
     }
 }

@@ -5,7 +5,7 @@ use super::messages::{
     Message, COMMAND, FAULT_DIAGNOSIS, FAULT_RESET, FAULT_STATE, LOOP_STATUS, SENSOR, SETPOINT,
     SUPPLY_PRESSURE, TUNED_GAINS, TUNED_PARAMETERS,
 };
-use crate::bus::Frame;
+use crate::canopen::Frame;
 use crate::supervise::{
     FaultFlags, FaultKind, FaultState, SupervisedFault, SupervisedFaults, Symptom, PHYSICAL_PARAMS,
 };

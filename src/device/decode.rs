@@ -2,7 +2,7 @@
 //! candump log), the same table `dbc/actuatord.dbc` is rendered from.
 
 use super::messages::{IdBase, Message, ALL};
-use crate::bus::Frame;
+use crate::canopen::Frame;
 
 /// One decoded signal: name, physical value, unit.
 #[derive(Debug, Clone, PartialEq)]
@@ -66,7 +66,7 @@ pub fn decode_frame(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::canopen::SensorPdo;
+    use crate::device::SensorPdo;
 
     #[test]
     fn a_sensor_frame_decodes_to_its_signals_and_a_short_one_is_named() {

@@ -1,26 +1,9 @@
 //! Generic pack/unpack of a [`Message`] from physical values, allocation-free.
 
-use super::messages::Message;
-use crate::bus::Frame;
+pub use crate::canopen::DecodeError;
 
-/// Why a received frame could not be decoded.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum DecodeError {
-    #[error("frame {name} (0x{id:03X}) has {got} data bytes, expected {expected}")]
-    WrongLength {
-        name: &'static str,
-        id: u32,
-        got: usize,
-        expected: usize,
-    },
-    #[error("frame {name} (0x{id:03X}): signal {signal} has invalid value {value}")]
-    BadValue {
-        name: &'static str,
-        id: u32,
-        signal: &'static str,
-        value: i64,
-    },
-}
+use super::messages::Message;
+use crate::canopen::Frame;
 
 /// Pack physical values, one per signal in table order, into a frame with the message's length.
 ///
@@ -42,15 +25,7 @@ pub fn pack(message: &Message, node_id: u8, values: &[f64]) -> (Frame, usize) {
 
 /// Check a frame's length against its message.
 pub fn check_length(message: &Message, frame: &Frame) -> Result<(), DecodeError> {
-    if frame.len() != message.dlc {
-        return Err(DecodeError::WrongLength {
-            name: message.name,
-            id: frame.id(),
-            got: frame.len(),
-            expected: message.dlc,
-        });
-    }
-    Ok(())
+    DecodeError::check_length(message.name, frame, message.dlc)
 }
 
 /// Unpack every signal into physical values, in table order.

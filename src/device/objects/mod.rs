@@ -1,0 +1,14 @@
+//! The objects of an actuatord node in the dictionary: the CiA 301 communication objects it
+//! serves and one manufacturer block per axis, built with the stack's dictionary machinery.
+
+pub mod axis_intelligence;
+mod daemon_objects;
+
+pub use daemon_objects::{
+    consumer_heartbeat_entry, daemon_dictionary, index, AxisParameters, DeviceParameters, MAX_AXES,
+};
+
+#[cfg(test)]
+mod eds_tests;
+#[cfg(test)]
+mod tests;
