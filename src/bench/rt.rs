@@ -20,7 +20,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 /// Extra load during the measurement.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Load {
     None,
@@ -28,6 +28,20 @@ pub enum Load {
     Cpu,
     /// Unrelated frames sent as fast as one thread can.
     CanFlood,
+}
+
+impl Load {
+    /// Every load, as the command line lists them.
+    pub const ALL: [Load; 3] = [Load::None, Load::Cpu, Load::CanFlood];
+
+    /// The name as given on the command line and in the JSON report.
+    pub fn name(self) -> &'static str {
+        match self {
+            Load::None => "none",
+            Load::Cpu => "cpu",
+            Load::CanFlood => "can-flood",
+        }
+    }
 }
 
 #[derive(Debug, Clone)]

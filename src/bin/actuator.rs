@@ -1,5 +1,12 @@
 //! `actuator`: the user's tool. A simulated actuator node, the demo, the DBC.
 
+#[path = "actuator/choice.rs"]
+mod choice;
+#[path = "actuator/lab.rs"]
+mod lab;
+
+use choice::Choice;
+
 use actuatord::bench::rt::{Load, RtBenchOptions};
 use actuatord::bus::SocketCanBus;
 use actuatord::daemon::Config;
@@ -105,7 +112,7 @@ enum Command {
     },
     /// The model lab: compare, diagnose, fit, report.
     #[command(flatten)]
-    Lab(actuatord::lab::cli::LabCommand),
+    Lab(lab::LabCommand),
     /// Read or write an object of a running daemon over SDO (types from its configuration).
     Sdo {
         #[arg(long, default_value = "vcan0")]
@@ -239,7 +246,7 @@ enum BenchCommand {
         /// Seconds per loop.
         #[arg(long, default_value_t = 10.0)]
         seconds: f64,
-        #[arg(long, value_enum, default_value_t = Load::None)]
+        #[arg(long, value_parser = Choice::<Load>::parser(), default_value = "none")]
         load: Load,
         /// Measure on this SocketCAN interface instead of the in-process bus.
         #[arg(long)]
@@ -443,7 +450,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             println!("{summary}");
             Ok(())
         }
-        Command::Lab(cmd) => actuatord::lab::cli::run(cmd),
+        Command::Lab(cmd) => lab::run(cmd),
         Command::Sdo {
             iface,
             node,

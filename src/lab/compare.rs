@@ -19,8 +19,7 @@ use super::signals::{prepare, Prepared};
 use crate::ident::{nrmse, rmse};
 
 /// A prediction mode.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, clap::ValueEnum)]
-#[value(rename_all = "snake_case")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Mode {
     /// Simulate the physics plant on the measured command.
     FreeRun,
@@ -31,6 +30,9 @@ pub enum Mode {
 }
 
 impl Mode {
+    /// Every mode, as the command line lists them.
+    pub const ALL: [Mode; 3] = [Mode::FreeRun, Mode::KStep, Mode::InverseDynamics];
+
     /// The mode's name as printed and in JSON.
     pub fn name(self) -> &'static str {
         match self {

@@ -26,8 +26,7 @@ use crate::ident::{
 use crate::physics::PlantSpec;
 
 /// How `actuator fit` identifies the parameters.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
-#[value(rename_all = "snake_case")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum FitMethod {
     /// Batch least squares on the balance of forces (inverse dynamics).
@@ -39,6 +38,13 @@ pub enum FitMethod {
 }
 
 impl FitMethod {
+    /// Every method, as the command line lists them.
+    pub const ALL: [FitMethod; 3] = [
+        FitMethod::LeastSquares,
+        FitMethod::Recursive,
+        FitMethod::OutputError,
+    ];
+
     /// The name as printed and in JSON.
     pub fn name(self) -> &'static str {
         match self {

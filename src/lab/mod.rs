@@ -26,7 +26,6 @@
 //! The lab uses the physics and identification layers and reads the daemon's recordings; it
 //! never uses the runtime otherwise.
 
-pub mod cli;
 pub mod compare;
 pub mod data;
 pub mod diagnose;

@@ -1,19 +1,22 @@
-//! The lab's command line: `actuator compare | diagnose | discover | fit | report`.
+//! The lab's command line: `actuator compare | diagnose | discover | fit | report`: arguments,
+//! progress bars and printing around the library's [`actuatord::lab`].
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use clap::{Args, Subcommand};
 
-use super::compare::{compare, default_mode, holdout, Mode};
-use super::data::{load, Columns, Dataset};
-use super::diagnose::{diagnose, DiagnoseOptions};
-use super::discover::discover;
-use super::methods::{fit_model, FitMethod, FitOptions, Status};
-use super::model::Model;
-use super::regimes::breakdown;
-use super::regress::fit_spec;
-use super::signals::{prepare, Prepared};
+use crate::choice::Choice;
+
+use actuatord::lab::compare::{compare, default_mode, holdout, Mode};
+use actuatord::lab::data::{load, Columns, Dataset};
+use actuatord::lab::diagnose::{diagnose, DiagnoseOptions};
+use actuatord::lab::discover::discover;
+use actuatord::lab::methods::{fit_model, FitMethod, FitOptions, Status};
+use actuatord::lab::model::Model;
+use actuatord::lab::regimes::breakdown;
+use actuatord::lab::regress::fit_spec;
+use actuatord::lab::signals::{prepare, Prepared};
 
 /// Where the data is and which columns hold what.
 #[derive(Debug, Clone, Args)]
@@ -67,7 +70,7 @@ pub enum LabCommand {
         #[command(flatten)]
         model: ModelArgs,
         /// Prediction mode (default: inverse_dynamics; free_run for motor_gear).
-        #[arg(long, value_enum)]
+        #[arg(long, value_parser = Choice::<Mode>::parser())]
         mode: Option<Mode>,
         /// Horizon of k_step in samples.
         #[arg(long, default_value_t = 10)]
@@ -122,13 +125,13 @@ pub enum LabCommand {
         /// Identification method: least_squares (inverse dynamics, one batch), recursive (the
         /// same regression sample by sample, with forgetting: shows drift), output_error
         /// (Levenberg-Marquardt on the predicted position, from the least-squares estimate).
-        #[arg(long, value_enum, default_value = "least_squares")]
+        #[arg(long, value_parser = Choice::<FitMethod>::parser(), default_value = "least_squares")]
         method: FitMethod,
         /// Forgetting factor of --method recursive, in (0, 1]; memory about 1/(1-λ) samples.
         #[arg(long, default_value_t = 1.0)]
         forgetting: f64,
         /// Criterion of --method output_error: k_step (works in closed loop) or free_run.
-        #[arg(long, value_enum, default_value = "k_step")]
+        #[arg(long, value_parser = Choice::<Mode>::parser(), default_value = "k_step")]
         mode: Mode,
         /// Horizon of the k_step criterion, samples.
         #[arg(long, default_value_t = 10)]
@@ -151,7 +154,7 @@ pub enum LabCommand {
         #[arg(long, value_delimiter = ',', requires = "family")]
         with: Vec<String>,
         /// Prediction mode.
-        #[arg(long, value_enum, default_value = "inverse_dynamics")]
+        #[arg(long, value_parser = Choice::<Mode>::parser(), default_value = "inverse_dynamics")]
         mode: Mode,
         /// Output directory.
         #[arg(long)]
@@ -240,7 +243,7 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             let held = fraction
                 .map(|f| holdout(&m, &d, &prep, mode, k, f))
                 .transpose()?;
-            let drive = super::drive::identify(&m.spec, &d, &prep)?;
+            let drive = actuatord::lab::drive::identify(&m.spec, &d, &prep)?;
             if json {
                 let out = serde_json::json!({
                     "mode": c.mode.name(), "quantity": c.quantity, "unit": c.unit,
@@ -449,7 +452,7 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                     format!(
                         "stopped after {} steps (at most {})",
                         found.steps.len(),
-                        super::discover::MAX_STEPS
+                        actuatord::lab::discover::MAX_STEPS
                     )
                 },
                 if with.is_empty() {
@@ -623,7 +626,7 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 .map(Ok)
                 .chain(model.iter().map(|p| Model::load(p)))
                 .collect::<anyhow::Result<Vec<_>>>()?;
-            let path = super::report::write_report(&out, &d, &prep, &models, mode)?;
+            let path = actuatord::lab::report::write_report(&out, &d, &prep, &models, mode)?;
             println!("wrote {}", path.display());
             Ok(())
         }
