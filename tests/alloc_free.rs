@@ -433,3 +433,120 @@ fn the_controller_nodes_cycle_and_an_sdo_setpoint_write_do_not_allocate() {
     assert_eq!(node.axes()[0].setpoint(), 0.011, "the write took effect");
     assert_eq!(counted, 0, "allocations in {} cycles", cycles - warm_up);
 }
+
+/// An SDO parameter write (pre-operational, segmented REAL64) with the builder attached: the
+/// boundary hands the staged writes to the builder and, cycles later, swaps in what it built.
+/// Neither allocates; the build itself happens outside the counted calls, as on its own thread.
+#[test]
+fn an_sdo_parameter_write_is_handed_off_and_swapped_in_without_allocating() {
+    use actuatord::bus::Frame;
+    use actuatord::canopen::{NmtCommand, ObjectId, SdoClient};
+    use actuatord::daemon::node::CycleTiming;
+    use actuatord::daemon::reconfigure::{build_parameters, BuildInput};
+    use actuatord::simnode::SimNode;
+
+    let (config, mut node) = solenoid_node();
+    let (builder, requests) = std::sync::mpsc::sync_channel::<BuildInput>(8);
+    node.attach_builder(builder);
+    let plant = actuatord::physics::PlantSpec::from_toml(
+        include_str!("../config/plants/solenoid.toml"),
+        "config/plants/solenoid.toml",
+    )
+    .and_then(|s| s.build_named("config/plants/solenoid.toml"))
+    .expect("plant");
+    let period_s = config.cycle.period_s;
+    let mut sim = SimNode::new(config.axis[0].actuator_node_id, plant, period_s, Vec::new());
+    let mut to_sim: Vec<Frame> = Vec::with_capacity(256);
+    let mut to_node: Vec<Frame> = Vec::with_capacity(256);
+    let mut events: Vec<String> = Vec::new();
+    sim.boot(&mut |_| {});
+    node.boot(&mut |f| to_sim.push(*f), &mut |_| {});
+    let mut client = SdoClient::new(node.node_id());
+    let sdo_response = 0x580 + u32::from(node.node_id());
+    let q0 = ObjectId::new(0x2001, 1);
+    let q0_before = node.dictionary().read(q0).expect("q0");
+    let mut request: Option<Frame> = None;
+    let mut built = None;
+    let mut returned = 0;
+    let (warm_up, write_at, cycles) = (800, 1000, 1400);
+    let mut counted = 0;
+    for k in 0..cycles {
+        let t = k as f64 * period_s;
+        to_node.clear();
+        for f in to_sim.drain(..) {
+            sim.handle(&f, &mut |a| to_node.push(*a), &mut |_| {});
+        }
+        if k % 40 == 0 {
+            to_node.push(sim.heartbeat());
+        }
+        if k == write_at {
+            to_node.push(NmtCommand::EnterPreOperational.encode(node.node_id()));
+            request = Some(client.start_download(q0, &2300.0f64.to_le_bytes(), t));
+        }
+        to_node.extend(request.take());
+        let before = allocations();
+        if let Some(b) = built.take() {
+            let back = node.apply_built(b, t, &mut |_| {});
+            assert!(
+                back.is_none(),
+                "with a builder, what was replaced goes back to it"
+            );
+        }
+        for f in &to_node {
+            node.handle(f, t, &mut |_| {});
+        }
+        node.begin_cycle();
+        let sync = node.sync_frame();
+        let after_node = allocations();
+        to_node.clear();
+        sim.handle(&sync, &mut |a| to_node.push(*a), &mut |_| {});
+        let resumed = allocations();
+        for a in &to_node {
+            node.handle(a, t, &mut |_| {});
+        }
+        node.finish_cycle(
+            t,
+            CycleTiming::default(),
+            &mut |f| to_sim.push(*f),
+            &mut |_| {},
+        );
+        if k >= warm_up {
+            counted += (after_node - before) + (allocations() - resumed);
+        }
+        // The builder's side, not counted: build from the staged writes, drop what came back.
+        while let Ok(input) = requests.try_recv() {
+            match input {
+                BuildInput::Writes(batch) => {
+                    // Until the build is swapped in, reads tell what the node runs with.
+                    assert_eq!(node.dictionary().read(q0), Ok(q0_before));
+                    let b = build_parameters(&config, batch);
+                    assert!(b.result.is_ok(), "{:?}", b.result.as_ref().err());
+                    built = Some(Box::new(b));
+                }
+                BuildInput::Done { applied, .. } => {
+                    assert!(applied);
+                    returned += 1;
+                }
+                BuildInput::Reload => events.push("reload".into()),
+            }
+        }
+        let mut i = 0;
+        while i < to_sim.len() {
+            if to_sim[i].id() == sdo_response {
+                let f = to_sim.remove(i);
+                request = client.handle(&f, t);
+            } else {
+                i += 1;
+            }
+        }
+    }
+    assert!(
+        matches!(client.outcome(), Some(Ok(_))),
+        "the write was answered: {:?}",
+        client.outcome()
+    );
+    assert!(events.is_empty());
+    assert_eq!(returned, 1, "one build swapped in and handed back");
+    assert_eq!(node.dictionary().read(q0), Ok(2300.0f64.into()));
+    assert_eq!(counted, 0, "allocations in {} cycles", cycles - warm_up);
+}

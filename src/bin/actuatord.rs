@@ -2,8 +2,9 @@
 
 use actuatord::bus::BusError;
 use actuatord::bus::SocketCanBus;
-use actuatord::daemon::node::{NodeCounters, PreparedReload};
+use actuatord::daemon::node::NodeCounters;
 use actuatord::daemon::notify::{watchdog_interval, Notifier};
+use actuatord::daemon::reconfigure::Builder;
 use actuatord::daemon::record_dir;
 use actuatord::daemon::state::{self, StateWriter};
 use actuatord::daemon::{
@@ -77,15 +78,14 @@ fn notify(notifier: &Option<Notifier>, message: &str) {
     }
 }
 
-/// One bus: its configuration, cycle thread, recorder and reload channel.
+/// One bus: its configuration, cycle thread, recorder and the builder of new configurations.
 struct BusCycle {
     config_path: PathBuf,
     iface: String,
     thread: std::thread::JoinHandle<(Result<CycleReport, BusError>, NodeCounters)>,
     recorder: Recorder,
-    reload: std::sync::mpsc::SyncSender<Box<PreparedReload>>,
-    /// What a reload replaced, handed back by the cycle to be dropped here.
-    retired: std::sync::mpsc::Receiver<Box<PreparedReload>>,
+    /// Builds SIGHUP reloads and SDO parameter writes off the cycle thread.
+    builder: Builder,
     progress: Arc<AtomicU64>,
     state: Option<StateWriter>,
 }
@@ -249,9 +249,15 @@ fn start_bus(
         duration_s: args.duration_s,
         record_frames: record.is_some() && config.record.can_frames,
     };
-    // SIGHUP hands a new, validated configuration to the cycle, which applies it at a boundary.
-    let (reload, reload_rx) = std::sync::mpsc::sync_channel::<Box<PreparedReload>>(1);
-    let (retired_tx, retired) = std::sync::mpsc::sync_channel::<Box<PreparedReload>>(2);
+    // SIGHUP and SDO parameter writes: the builder reads, validates and builds the new
+    // configuration; the cycle swaps it in at a boundary.
+    let reload_path = config_path.to_path_buf();
+    let reload_iface = args.iface.clone();
+    let (builder, link) = Builder::spawn(
+        config.clone(),
+        config_path.display().to_string(),
+        Box::new(move || load_config(&reload_path, reload_iface.as_deref())),
+    )?;
     let progress = Arc::new(AtomicU64::new(0));
     let cycle_stop = stop.clone();
     let cycle_progress = progress.clone();
@@ -267,8 +273,7 @@ fn start_bus(
                 &cycle_progress,
                 &sink,
                 CycleServices {
-                    reload: Some(reload_rx),
-                    retired: Some(retired_tx),
+                    reconfigure: Some(link),
                     state: state_sink,
                 },
             );
@@ -280,8 +285,7 @@ fn start_bus(
         iface: config.bus.iface.clone(),
         thread,
         recorder,
-        reload,
-        retired,
+        builder,
         progress,
         state: state_writer,
     })
@@ -445,16 +449,9 @@ fn run(args: Args) -> anyhow::Result<()> {
                 _ = ended_rx.recv() => break,
                 _ = hup.recv() => {
                     for c in &cycles {
-                        // What earlier reloads replaced is freed here, not on the cycle thread.
-                        while c.retired.try_recv().is_ok() {}
-                        let prepared = load_config(&c.config_path, args.iface.as_deref())
-                            .and_then(|new| PreparedReload::build(new).map_err(|e| anyhow::anyhow!("{}: {e}", c.config_path.display())));
-                        match prepared {
-                            Ok(new) => match c.reload.try_send(Box::new(new)) {
-                                Ok(()) => tracing::info!("SIGHUP: {} read, taking effect at the next cycle", c.config_path.display()),
-                                Err(_) => tracing::warn!("SIGHUP: a reload of {} is still pending; this one is ignored", c.config_path.display()),
-                            },
-                            Err(e) => tracing::error!("SIGHUP: {e:#}; keeping the running configuration"),
+                        // The builder reads and builds it off the cycle thread, and logs how it went.
+                        if !c.builder.reload() {
+                            tracing::warn!("SIGHUP: reloads of {} are still pending; this one is ignored", c.config_path.display());
                         }
                     }
                 }
@@ -479,6 +476,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             .thread
             .join()
             .map_err(|_| anyhow::anyhow!("the cycle thread of {} panicked", c.iface))?;
+        c.builder.join();
         let report = c.recorder.finish()?;
         if let Some(writer) = c.state {
             let w = writer.finish();

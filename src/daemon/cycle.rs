@@ -1,14 +1,15 @@
 //! The fixed-rate cycle: sleep to the release time, SYNC, gather sensor frames until the sensor
 //! deadline, control, send. Runs on its own thread; never touches disk or takes a shared lock.
 
-use super::node::{ControllerNode, CycleTiming, PreparedReload};
+use super::node::{ControllerNode, CycleTiming};
+use super::reconfigure::{BuilderLink, Built};
 use super::record::{Event, Record};
 use super::recorder::RecordSink;
 use super::rt;
 use super::state::StateSink;
 use crate::bus::{Bus, BusError, BusEvent, BusFault, Frame};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::mpsc::{Receiver, SyncSender};
+use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 /// Frames handled before SYNC per cycle: about a period's worth of a saturated 1 Mbit/s bus at
@@ -50,8 +51,7 @@ pub struct CycleRunner<'a> {
     sensor_wait: Duration,
     last_latency_s: f64,
     record_frames: bool,
-    reload: Option<Receiver<Box<PreparedReload>>>,
-    retired: Option<SyncSender<Box<PreparedReload>>>,
+    built: Option<Receiver<Box<Built>>>,
     /// The interface went away: the socket must be opened again before it can carry frames.
     reopen_needed: bool,
     /// Since a bus-off: the controller reported its restart, or a frame came in.
@@ -78,22 +78,20 @@ impl<'a> CycleRunner<'a> {
             sensor_wait: Duration::from_secs_f64(sensor_deadline_s),
             last_latency_s: 0.0,
             record_frames: false,
-            reload: None,
-            retired: None,
+            built: None,
             reopen_needed: false,
             bus_alive_seen: false,
         }
     }
 
-    /// New configurations (SIGHUP), built off this thread, arrive on `rx`; each takes effect at
-    /// the next cycle boundary, and what it replaced goes back on `retired` to be dropped there.
-    pub fn reload_from(
-        mut self,
-        rx: Option<Receiver<Box<PreparedReload>>>,
-        retired: Option<SyncSender<Box<PreparedReload>>>,
-    ) -> Self {
-        self.reload = rx;
-        self.retired = retired;
+    /// New configurations (SIGHUP reloads and SDO parameter writes) are built off this thread
+    /// by the builder of [`super::reconfigure`]; each takes effect at the next cycle boundary,
+    /// and what it replaced goes back to the builder to be dropped there.
+    pub fn reconfigure_with(mut self, link: Option<BuilderLink>) -> Self {
+        if let Some(link) = link {
+            self.node.attach_builder(link.input);
+            self.built = Some(link.built);
+        }
         self
     }
 
@@ -232,14 +230,11 @@ impl<'a> CycleRunner<'a> {
         let release = self.start_instant + Duration::from_nanos(k * self.period_ns);
         let t_s = (k * self.period_ns) as f64 * 1e-9;
         let sink = self.sink;
-        if let Some(prepared) = self.reload.as_ref().and_then(|rx| rx.try_recv().ok()) {
-            let replaced = self
+        if let Some(built) = self.built.as_ref().and_then(|rx| rx.try_recv().ok()) {
+            // The node hands what it replaced back to the builder.
+            let _ = self
                 .node
-                .apply_reload(prepared, t_s, &mut |r: Record| sink.push(r));
-            if let Some(tx) = &self.retired {
-                // With nobody to take it, it is dropped here: a rare free, not a blocked cycle.
-                let _ = tx.try_send(replaced);
-            }
+                .apply_built(built, t_s, &mut |r: Record| sink.push(r));
         }
         let was_lost = self.node.bus_lost().is_some();
         if was_lost && !self.try_bus(t_s)? {
@@ -387,10 +382,8 @@ pub fn run_cycle(
 /// What the daemon adds around the cycle: new configurations (SIGHUP) and the state writer.
 #[derive(Default)]
 pub struct CycleServices {
-    /// New configurations, built off the cycle thread, each taken at the next cycle boundary.
-    pub reload: Option<Receiver<Box<PreparedReload>>>,
-    /// What a reload replaced goes back here, to be dropped off the cycle thread.
-    pub retired: Option<SyncSender<Box<PreparedReload>>>,
+    /// The builder of new configurations (SIGHUP, SDO parameter writes), off the cycle thread.
+    pub reconfigure: Option<BuilderLink>,
     /// What the axes learned is offered to it every so many cycles, and once at the end.
     pub state: Option<StateSink>,
 }
@@ -405,11 +398,7 @@ pub fn run_cycle_with(
     sink: &RecordSink,
     services: CycleServices,
 ) -> Result<CycleReport, BusError> {
-    let CycleServices {
-        reload,
-        retired,
-        state,
-    } = services;
+    let CycleServices { reconfigure, state } = services;
     let realtime =
         settings.realtime_priority > 0 && rt::set_fifo_priority(settings.realtime_priority).is_ok();
     let memory_locked = settings.lock_memory && rt::lock_memory().is_ok();
@@ -431,7 +420,7 @@ pub fn run_cycle_with(
         settings.sensor_deadline_s,
     )
     .record_frames(settings.record_frames)
-    .reload_from(reload, retired);
+    .reconfigure_with(reconfigure);
     let period_ns = runner.period_ns();
     let mut k: u64 = 0;
     let mut outcome = runner.boot();

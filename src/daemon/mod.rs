@@ -13,6 +13,7 @@ pub mod profile_config;
 pub mod profile_dbc;
 pub mod profile_link;
 pub mod profile_setup;
+pub mod reconfigure;
 pub use crate::recording::record;
 pub mod record_dir;
 pub mod recorder;

@@ -5,8 +5,10 @@ use super::axis::{Axis, AxisStep};
 use super::config::{cycles, BusLossPolicy, CommandKind, Config};
 use super::dictionary::{self, LiveObjects, LoopFigures, WriteEffect};
 use super::profile_link::{NodeLayout, ProfileLink, Received};
+use super::reconfigure::{build_parameters, BuildInput, BuildKind, Built};
 use super::record::{CycleRecord, Event, Record};
 use crate::bus::{BusFault, Frame};
+use crate::canopen::od::PendingWrite;
 use crate::canopen::{
     decode_heartbeat, decode_sync, encode_heartbeat, is_heartbeat, NmtCommand, NmtState,
     SyncCounter,
@@ -19,6 +21,7 @@ use crate::device::{
 };
 use crate::supervise::{FaultKind, FaultState};
 use hdrhistogram::Histogram;
+use std::sync::mpsc::{SyncSender, TrySendError};
 
 /// Counters of the node since start.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -105,7 +108,8 @@ pub struct ControllerNode {
     pending_reset: bool,
     period_s: f64,
     stage_clock: Option<fn() -> u64>,
-    /// The configuration in force; SDO writes change it and rebuild what depends on it.
+    /// The configuration in force; a reload or SDO parameter writes replace it, built apart
+    /// ([`super::reconfigure`]) and swapped in at a boundary.
     config: Config,
     od: ObjectDictionary,
     sdo: SdoServer,
@@ -127,6 +131,11 @@ pub struct ControllerNode {
     last_bus_fault: Option<(BusFault, f64)>,
     /// Per axis, the link to a standard (CiA 402/401) actuator node; `None` for ours.
     links: Vec<Option<ProfileLink>>,
+    /// The builder that makes new configurations off this thread ([`super::reconfigure`]);
+    /// without one (tests, lock-step runs) the node builds at the boundary itself.
+    builder: Option<SyncSender<BuildInput>>,
+    /// Room for the staged writes of one parameter build; away while a build is out.
+    batch: Option<Vec<PendingWrite>>,
 }
 
 /// A configuration with its dictionary and axes built, ready to be swapped in at a cycle
@@ -139,6 +148,11 @@ pub struct PreparedReload {
 }
 
 impl PreparedReload {
+    /// The configuration it was built from.
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+
     /// Build everything a reload needs (this allocates: not on the cycle thread).
     pub fn build(config: Config) -> Result<Self, String> {
         let od = dictionary::build(&config).map_err(|e| e.to_string())?;
@@ -177,6 +191,7 @@ impl ControllerNode {
             .collect::<Result<Vec<_>, _>>()?;
         let od = dictionary::build(config)?;
         let live = LiveObjects::new(&od, axes.len());
+        let writable = od.entries().iter().filter(|e| e.access.writable()).count();
         // The layout the daemon gives standard nodes at start-up; the runtime replaces it with
         // the one it configured and checked ([`ControllerNode::set_node_layout`]).
         let links = config
@@ -197,6 +212,8 @@ impl ControllerNode {
             .collect();
         Ok(Self {
             links,
+            builder: None,
+            batch: Some(Vec::with_capacity(writable)),
             config: config.clone(),
             sdo: SdoServer::new(config.node.node_id),
             live,
@@ -851,7 +868,11 @@ impl ControllerNode {
         );
     }
 
-    /// Staged SDO writes take effect together at this cycle boundary, or not at all.
+    /// Staged SDO writes take effect together, or not at all. Setpoints and fault resets alone
+    /// apply at this boundary, in place. Parameters go to the builder
+    /// ([`super::reconfigure`]), which applies them to the configuration in force, validates
+    /// and builds it off this thread; a later boundary swaps the result in ([`Self::apply_built`]).
+    /// Without a builder (tests, lock-step runs) the node builds here, through the same function.
     fn apply_sdo_writes(&mut self, now_s: f64, record: &mut dyn FnMut(Record)) {
         let staged = self.od.pending_writes().len();
         if staged == 0 {
@@ -880,64 +901,99 @@ impl ControllerNode {
             }));
             return;
         }
-        let mut config = self.config.clone();
-        let mut effects = Vec::new();
-        let mut refused = None;
-        for w in self.od.take_pending_writes() {
-            match dictionary::apply_write(&mut config, &w) {
-                Ok(effect) => effects.push(effect),
-                Err(e) => {
-                    refused.get_or_insert(e);
+        // Parameters: the configuration in force changes. The builder makes the new one off
+        // this thread; until it is swapped in, the dictionary shows the one the node runs with.
+        // While a build is out, new writes stay staged for the next.
+        let Some(mut batch) = self.batch.take() else {
+            return;
+        };
+        batch.clear();
+        batch.extend_from_slice(self.od.pending_writes());
+        self.od.discard_pending_writes();
+        match &self.builder {
+            Some(builder) => {
+                if let Err(e) = builder.try_send(BuildInput::Writes(batch)) {
+                    if let TrySendError::Full(BuildInput::Writes(batch))
+                    | TrySendError::Disconnected(BuildInput::Writes(batch)) = e
+                    {
+                        self.batch = Some(batch);
+                    }
+                    record(Record::Event(Event::ParametersRefused {
+                        t_s: now_s,
+                        reason: "the configuration builder does not answer".into(),
+                    }));
                 }
+            }
+            None => {
+                let built = Box::new(build_parameters(&self.config, batch));
+                drop(self.apply_built(built, now_s, record));
             }
         }
-        let origin = std::path::Path::new("SDO write");
-        let rebuilt: Result<Vec<(usize, Axis)>, String> = effects
-            .iter()
-            .filter_map(|e| match e {
-                WriteEffect::Rebuild { axis } => Some(*axis),
-                _ => None,
-            })
-            .collect::<std::collections::BTreeSet<_>>()
-            .into_iter()
-            .map(|i| {
-                config.validate(origin).map_err(|e| e.to_string())?;
-                let mut axis =
-                    Axis::new(&config.axis[i], self.period_s).map_err(|e| e.to_string())?;
-                axis.continue_from(&self.axes[i]);
-                Ok((i, axis))
-            })
-            .collect();
-        let result = refused.map_or(rebuilt, Err).and_then(|axes| {
-            if effects.contains(&WriteEffect::Node) {
-                config.validate(origin).map_err(|e| e.to_string())?;
-            }
-            Ok(axes)
-        });
-        match result {
-            Ok(axes) => {
-                for (i, axis) in axes {
-                    self.axes[i] = axis;
-                }
-                self.config = config;
-                for &effect in &effects {
-                    self.apply_effect(effect, now_s, record);
-                }
-                record(Record::Event(Event::ParametersApplied {
+    }
+
+    /// Use the builder of [`super::reconfigure`] for SDO parameter writes, and hand back to it
+    /// what a swap replaced.
+    pub fn attach_builder(&mut self, builder: SyncSender<BuildInput>) {
+        self.builder = Some(builder);
+    }
+
+    /// Swap in a build (a reload, or SDO parameter writes) at this cycle boundary, and record
+    /// what happened. Allocation-free; what was replaced goes back to the builder to be dropped
+    /// there (returned instead when the node has no builder).
+    pub fn apply_built(
+        &mut self,
+        mut built: Box<Built>,
+        now_s: f64,
+        record: &mut dyn FnMut(Record),
+    ) -> Option<Box<Built>> {
+        let applied = match (built.kind, &mut built.result) {
+            (BuildKind::Reload, Ok(prepared)) => self.swap_in(prepared, now_s, record).is_some(),
+            (BuildKind::Reload, Err(reason)) => {
+                record(Record::Event(Event::ReloadRefused {
                     t_s: now_s,
-                    writes: effects.len() as u32,
+                    reason: reason.as_str().into(),
                 }));
+                false
             }
-            Err(reason) => {
-                // Nothing applied: the dictionary shows the configuration in force again.
-                if let Ok(od) = dictionary::build(&self.config) {
-                    self.od = od;
+            (BuildKind::Parameters, Ok(prepared)) => {
+                let applied = self.swap_in(prepared, now_s, &mut |_| {}).is_some();
+                if applied {
+                    // Setpoints and fault resets that came with the parameters, in order.
+                    for i in 0..built.batch.len() {
+                        if let Some(effect) = dictionary::live_effect(&built.batch[i]) {
+                            self.apply_effect(effect, now_s, record);
+                        }
+                    }
+                    record(Record::Event(Event::ParametersApplied {
+                        t_s: now_s,
+                        writes: built.batch.len() as u32,
+                    }));
+                } else {
+                    record(Record::Event(Event::ParametersRefused {
+                        t_s: now_s,
+                        reason: "the writes change what needs a restart".into(),
+                    }));
                 }
+                applied
+            }
+            (BuildKind::Parameters, Err(reason)) => {
                 record(Record::Event(Event::ParametersRefused {
                     t_s: now_s,
-                    reason: reason.into(),
+                    reason: reason.as_str().into(),
                 }));
+                false
             }
+        };
+        if built.kind == BuildKind::Parameters {
+            self.batch = Some(std::mem::take(&mut built.batch));
+        }
+        match &self.builder {
+            Some(builder) => {
+                // A full queue only drops the replaced parts here instead of on the builder.
+                let _ = builder.try_send(BuildInput::Done { built, applied });
+                None
+            }
+            None => Some(built),
         }
     }
 
@@ -987,7 +1043,7 @@ impl ControllerNode {
     /// Take a new configuration at this cycle boundary (SIGHUP). Only parameters may change:
     /// node ids, axes, commands, period and bus stay; a structural change is refused whole.
     /// Builds everything here; the daemon builds it off the cycle thread instead
-    /// ([`PreparedReload::build`], then [`ControllerNode::apply_reload`]).
+    /// ([`super::reconfigure::Builder`], then [`ControllerNode::apply_built`]).
     pub fn reload(&mut self, new: Config, now_s: f64, record: &mut dyn FnMut(Record)) {
         match PreparedReload::build(new) {
             Ok(prepared) => {
@@ -1010,6 +1066,19 @@ impl ControllerNode {
         now_s: f64,
         record: &mut dyn FnMut(Record),
     ) -> Box<PreparedReload> {
+        self.swap_in(&mut prepared, now_s, record);
+        prepared
+    }
+
+    /// Exchange the node's configuration, dictionary and axes with `prepared`'s, if only
+    /// parameters changed; `prepared` then holds what was replaced. Returns the number of axes
+    /// rebuilt, or None (and records why) when the change needs a restart.
+    fn swap_in(
+        &mut self,
+        prepared: &mut PreparedReload,
+        now_s: f64,
+        record: &mut dyn FnMut(Record),
+    ) -> Option<u32> {
         let (old, new) = (&self.config, &prepared.config);
         let same_axes = old.axis.len() == new.axis.len()
             && old.axis.iter().zip(&new.axis).all(|(a, b)| {
@@ -1031,7 +1100,7 @@ impl ControllerNode {
                 reason: "bus, node ids, axes, commands or the period changed: that needs a restart"
                     .into(),
             }));
-            return prepared;
+            return None;
         }
         let mut rebuilt = 0;
         for i in 0..self.axes.len() {
@@ -1045,12 +1114,14 @@ impl ControllerNode {
         self.status_every = cycles(prepared.config.node.status_period_s, self.period_s);
         std::mem::swap(&mut self.live, &mut prepared.live);
         std::mem::swap(&mut self.od, &mut prepared.od);
+        // What was published stays readable, and writes staged meanwhile stay staged.
+        self.od.carry_over_from(&mut prepared.od);
         std::mem::swap(&mut self.config, &mut prepared.config);
         record(Record::Event(Event::Reloaded {
             t_s: now_s,
             axes_rebuilt: rebuilt,
         }));
-        prepared
+        Some(rebuilt)
     }
 
     /// The object dictionary, as SDO clients see it.

@@ -429,6 +429,35 @@ impl ObjectDictionary {
         self.pending.drain(..)
     }
 
+    /// Take over from the dictionary this one replaces (same layout, rebuilt from a new
+    /// configuration): the values it published (read-only entries) stay readable until they are
+    /// published again, and writes staged on it are staged here. Allocation-free: the staging
+    /// area holds one slot per writable entry. An entry the new table lacks, or types differently,
+    /// is left as built.
+    pub fn carry_over_from(&mut self, old: &mut ObjectDictionary) {
+        for (e, v) in old.entries.iter().zip(&old.values) {
+            if e.access != Access::ReadOnly {
+                continue;
+            }
+            if let Some(h) = self.handle(e.id) {
+                if self.entries[h.0].data_type == e.data_type {
+                    self.values[h.0] = *v;
+                }
+            }
+        }
+        for w in old.pending.drain(..) {
+            let Some(h) = self.handle(w.id) else { continue };
+            if self.entries[h.0].data_type != w.value.data_type() {
+                continue;
+            }
+            let moved = PendingWrite { handle: h, ..w };
+            match self.pending.iter_mut().find(|p| p.handle == h) {
+                Some(slot) => *slot = moved,
+                None => self.pending.push(moved),
+            }
+        }
+    }
+
     /// Drop every staged write (e.g. on an NMT reset).
     pub fn discard_pending_writes(&mut self) {
         self.pending.clear();
