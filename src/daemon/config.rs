@@ -6,6 +6,7 @@ use crate::control::{
     LearnedTableConfig, NonlinearCorrection, NonlinearCorrectionConfig, ParamError,
     PneumaticAdaptive, PneumaticAdaptiveConfig, SchedulePoint,
 };
+use crate::param::Declared;
 use crate::supervise::{
     DisturbanceObserver, EstimatorSupervisorConfig, FaultMachineConfig, FaultSymptomTable,
     FaultTableError, ObserverConfig, ParameterEstimator, ParameterEstimatorConfig, Reaction,
@@ -454,33 +455,8 @@ pub struct PneumaticAdaptiveSection {
     pub drive_gain_max_m_per_s: f64,
 }
 
-/// `[axis.observer]`: model `[Y, Y', I, x4]` of the solenoid drive, pole placement, x4 bands.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ObserverSection {
-    pub mass_kg: f64,
-    pub damping_n_s_per_m: f64,
-    pub spring_n_per_m: f64,
-    pub force_constant_n_per_a: f64,
-    pub current_gain_a_per_v: f64,
-    pub current_time_constant_s: f64,
-    /// Discrete observer poles, inside the unit circle.
-    pub poles: [f64; 4],
-    /// |y - Ŷ| below this counts as a small residual, m.
-    pub residual_max_m: f64,
-    /// |Ŷ'| above this counts as moving, m/s.
-    pub moving_speed_m_per_s: f64,
-    /// Time after start before anything is learned or compared, s.
-    pub warmup_s: f64,
-    /// Moving samples per direction that make the learned band.
-    pub learn_samples: u32,
-    /// Band half-width `max(band_sigmas σ, band_min_halfwidth_m)`.
-    pub band_sigmas: f64,
-    pub band_min_halfwidth_m: f64,
-    pub smoothing_time_constant_s: f64,
-    /// Compared moving samples outside the band before the deviation counts.
-    pub persistence_samples: u32,
-}
+/// `[axis.observer]`, declared with its ranges and access where the observer lives.
+pub use crate::supervise::ObserverSection;
 
 /// Nominal physical parameters `p = [T_I, D, ω0, K_P, F_C, F_0]`.
 #[derive(Debug, Clone, Copy, Deserialize, PartialEq, serde::Serialize)]
@@ -1468,6 +1444,10 @@ impl AxisConfig {
         }
         if let Some(c) = self.observer_config(period_s) {
             DisturbanceObserver::new(c).map_err(param("observer"))?;
+        }
+        if let Some(o) = &self.observer {
+            // Whatever the rules above leave: the ranges declared with the section.
+            o.check().map_err(param("observer"))?;
         }
         if let Some(p) = &self.parameter_estimation {
             if p.window_updates < 10 {

@@ -9,9 +9,11 @@ use crate::canopen::od::{BuildError, Handle, PendingWrite};
 use crate::canopen::{ObjectDictionary, Value};
 use crate::device::objects::axis_intelligence::{
     symptom_bits, AdaptiveFrictionParameters, EstimationParameters, IntelligenceParameters,
-    ObserverParameters, ScheduleParameters, BAND_NAMES, ESTIMATE_NAMES, NOMINAL_NAMES,
+    ScheduleParameters, BAND_NAMES, ESTIMATE_NAMES, NOMINAL_NAMES,
 };
 use crate::device::objects::{daemon_dictionary, AxisParameters, DeviceParameters};
+use crate::param::Declared;
+use crate::supervise::ObserverSection;
 
 /// One entry per configuration value the dictionary carries.
 pub fn axis_parameters(a: &AxisConfig) -> AxisParameters {
@@ -74,15 +76,7 @@ fn intelligence_parameters(a: &AxisConfig) -> IntelligenceParameters {
                 model_deadband_m: f.model_deadband_m,
                 settled_band_m: f.settled_band_m,
             }),
-        observer: a.observer.as_ref().map(|o| ObserverParameters {
-            residual_max_m: o.residual_max_m,
-            moving_speed_m_per_s: o.moving_speed_m_per_s,
-            learn_samples: o.learn_samples,
-            band_sigmas: o.band_sigmas,
-            band_min_halfwidth_m: o.band_min_halfwidth_m,
-            smoothing_time_constant_s: o.smoothing_time_constant_s,
-            persistence_samples: o.persistence_samples,
-        }),
+        observer: a.observer.clone(),
         estimation: a
             .parameter_estimation
             .as_ref()
@@ -287,23 +281,11 @@ fn apply_intelligence_write(
                 _ => &mut f.settled_band_m,
             } = number;
         }
-        "residual_max_m"
-        | "moving_speed_m_per_s"
-        | "band_sigmas"
-        | "band_min_halfwidth_m"
-        | "smoothing_time_constant_s" => {
+        // Declared sections: the name is the declaration's, and so are the range checks.
+        _ if ObserverSection::spec(name).is_some() => {
             let o = a.observer.as_mut().ok_or_else(missing)?;
-            *match name {
-                "residual_max_m" => &mut o.residual_max_m,
-                "moving_speed_m_per_s" => &mut o.moving_speed_m_per_s,
-                "band_sigmas" => &mut o.band_sigmas,
-                "band_min_halfwidth_m" => &mut o.band_min_halfwidth_m,
-                _ => &mut o.smoothing_time_constant_s,
-            } = number;
-        }
-        "learn_samples" => a.observer.as_mut().ok_or_else(missing)?.learn_samples = count,
-        "persistence_samples" => {
-            a.observer.as_mut().ok_or_else(missing)?.persistence_samples = count
+            o.set(name, w.value.as_f64().unwrap_or(f64::NAN))
+                .map_err(|e| format!("{}: {e}", w.id))?;
         }
         "symptom_sigmas" => {
             a.parameter_estimation

@@ -67,3 +67,7 @@ pub fn range(name: &'static str, lo: f64, hi: f64) -> Result<(f64, f64), ParamEr
         ))
     }
 }
+
+mod declare;
+
+pub use declare::{Access, Declared, Kind, ParamSpec, ParamValue};

@@ -9,6 +9,7 @@ mod estimator_supervisor;
 mod fault_machine;
 pub mod fault_table;
 mod observer;
+mod observer_section;
 mod param_diagnosis;
 
 pub use estimator_supervisor::{
@@ -20,6 +21,7 @@ pub use fault_machine::{
 };
 pub use fault_table::{FaultSymptomTable, FaultTableError, TableRow};
 pub use observer::{Deviation, DisturbanceObserver, ObserverConfig, ObserverOutput};
+pub use observer_section::ObserverSection;
 pub use param_diagnosis::{
     diagnose, physical_from_theta, symptom_bound, symptoms, DiagnosedFault, Diagnosis, Nominal,
     NominalLearner, ParameterEstimator, ParameterEstimatorConfig, PhysicalEstimate,

@@ -17,6 +17,8 @@
 
 use crate::canopen::od::EntrySpec;
 use crate::canopen::od::{ObjectDictionaryBuilder, Value};
+use crate::param::{Access as ParamAccess, Declared, Kind};
+use crate::supervise::ObserverSection;
 
 /// Offsets inside an axis block (see `daemon_objects::index`).
 pub const ADAPTIVE_FRICTION: u16 = 0x06;
@@ -37,18 +39,6 @@ pub struct AdaptiveFrictionParameters {
     pub error_deadband_m: f64,
     pub model_deadband_m: f64,
     pub settled_band_m: f64,
-}
-
-/// The supervision thresholds of `[axis.observer]` (its model is structural: a restart).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ObserverParameters {
-    pub residual_max_m: f64,
-    pub moving_speed_m_per_s: f64,
-    pub learn_samples: u32,
-    pub band_sigmas: f64,
-    pub band_min_halfwidth_m: f64,
-    pub smoothing_time_constant_s: f64,
-    pub persistence_samples: u32,
 }
 
 /// The windows of `[axis.parameter_estimation]`.
@@ -77,7 +67,8 @@ pub struct ScheduleParameters {
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct IntelligenceParameters {
     pub adaptive_friction: Option<AdaptiveFrictionParameters>,
-    pub observer: Option<ObserverParameters>,
+    /// `[axis.observer]`: its writable thresholds become entries, as declared.
+    pub observer: Option<ObserverSection>,
     pub estimation: Option<EstimationParameters>,
     pub schedule: Option<ScheduleParameters>,
 }
@@ -143,9 +134,29 @@ const UP_NAMES: [&str; MAX_SCHEDULE_POINTS] = [
     "drive_gain_up_7",
 ];
 
-/// A length or speed threshold: > 0 and at most this.
-const THRESHOLD_MAX: f64 = 1e3;
 const POSITIVE_MIN: f64 = 1e-12;
+
+/// The entries of a declared section: its parameters writable in pre-operational, with the
+/// declared unit, range and line of documentation, in declaration order.
+fn declared_entries<S: Declared>(section: &S) -> Vec<EntrySpec> {
+    S::PARAMS
+        .iter()
+        .filter(|p| p.access == ParamAccess::PreOperational)
+        .filter_map(|p| {
+            let v = section.get(p.name)?;
+            let side = |x: f64, f: fn(f64) -> Value| x.is_finite().then(|| f(x));
+            let e = match p.kind {
+                Kind::Real => EntrySpec::rw_preop(p.name, v).between(p.min, p.max),
+                Kind::Count => EntrySpec::rw_preop(p.name, v as u32).range(
+                    side(p.min, |x| Value::Unsigned32(x as u32)),
+                    side(p.max, |x| Value::Unsigned32(x as u32)),
+                ),
+                Kind::Array => return None,
+            };
+            Some(e.unit(p.unit).doc(p.doc))
+        })
+        .collect()
+}
 
 /// Add the intelligent-section objects of axis `i` (indices from `at(offset)`).
 pub fn intelligence_objects(
@@ -190,27 +201,7 @@ pub fn intelligence_objects(
             at(OBSERVER),
             format!("axis{i}_observer"),
             axis,
-            vec![
-                EntrySpec::rw_preop("residual_max_m", o.residual_max_m)
-                    .unit("m")
-                    .between(POSITIVE_MIN, THRESHOLD_MAX)
-                    .doc("x4 is judged only while |y - Y_hat| is below this"),
-                EntrySpec::rw_preop("moving_speed_m_per_s", o.moving_speed_m_per_s)
-                    .unit("m/s")
-                    .between(POSITIVE_MIN, THRESHOLD_MAX),
-                EntrySpec::rw_preop("learn_samples", o.learn_samples)
-                    .range(Some(Value::Unsigned32(1)), None)
-                    .doc("samples per direction that make the nominal band"),
-                EntrySpec::rw_preop("band_sigmas", o.band_sigmas).between(POSITIVE_MIN, 100.0),
-                EntrySpec::rw_preop("band_min_halfwidth_m", o.band_min_halfwidth_m)
-                    .unit("m")
-                    .between(0.0, THRESHOLD_MAX),
-                EntrySpec::rw_preop("smoothing_time_constant_s", o.smoothing_time_constant_s)
-                    .unit("s")
-                    .between(0.0, 1e3),
-                EntrySpec::rw_preop("persistence_samples", o.persistence_samples)
-                    .range(Some(Value::Unsigned32(1)), None),
-            ],
+            declared_entries(o),
         );
     }
     if let Some(e) = &p.estimation {
