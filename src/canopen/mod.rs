@@ -1,10 +1,11 @@
 //! The CANopen-style protocol stack, sans-I/O, knowing no actuator: frames, NMT, SYNC and
-//! heartbeat, SDO client and server, the object dictionary machinery and the EDS writer.
+//! heartbeat, EMCY framing, SDO client and server, the object dictionary machinery and the EDS writer.
 //!
 //! What an actuatord node says with it (its PDOs, message table, EMCY codes and the objects of
 //! an axis) is the device profile, [`crate::device`], one layer up.
 
 pub mod eds;
+pub mod emcy;
 mod error;
 mod frame;
 pub mod nmt;
@@ -13,6 +14,7 @@ pub mod sdo;
 mod signal;
 
 pub use eds::{render_eds, EdsInfo};
+pub use emcy::EmcyFrame;
 pub use error::DecodeError;
 pub use frame::{Frame, FrameError};
 pub use nmt::{

@@ -5,6 +5,8 @@
 use super::config::AxisConfig;
 use super::profile_config::{drive_mode, ProfileKind};
 use crate::bus::Frame;
+use crate::canopen::emcy::EMCY_FUNCTION_CODE;
+use crate::canopen::EmcyFrame;
 use crate::device::profile::cia401::{self, Scaling};
 use crate::device::profile::cia402::{self, Mode, PowerDriver, State, Target};
 use crate::device::profile::mapping::{sign_extend, to_raw_signed, Direction, Pdo};
@@ -137,11 +139,11 @@ impl ProfileLink {
     /// Take a frame; PDOs of the node update the readings, its EMCY the drive's error code.
     pub fn handle(&mut self, frame: &Frame) -> Received {
         let id = frame.id();
-        if id == 0x80 + u32::from(self.node_id) {
-            if let Device::Drive { emcy_code, .. } = &mut self.device {
-                if let [lo, hi, ..] = frame.data() {
-                    *emcy_code = u16::from_le_bytes([*lo, *hi]);
-                }
+        if id == EMCY_FUNCTION_CODE + u32::from(self.node_id) {
+            if let (Device::Drive { emcy_code, .. }, Some(emcy)) =
+                (&mut self.device, EmcyFrame::decode(frame, self.node_id))
+            {
+                *emcy_code = emcy.error_code;
             }
             return Received::Taken;
         }

@@ -3,6 +3,7 @@
 //! `dbc/actuatord.dbc` is rendered from these tables (`actuator dbc`), and a test decodes codec
 //! output with that file, so code and DBC cannot drift apart.
 
+use crate::canopen::emcy::EMCY_FUNCTION_CODE;
 use crate::canopen::nmt::{HEARTBEAT_FUNCTION_CODE, NMT_COB_ID, SYNC_COB_ID};
 use crate::canopen::Signal;
 
@@ -601,7 +602,7 @@ pub const SYNC: Message = Message {
 
 pub const EMCY: Message = Message {
     name: "emcy",
-    function_code: 0x080,
+    function_code: EMCY_FUNCTION_CODE,
     id_base: IdBase::Controller,
     transmitter: NODE_CONTROLLER,
     dlc: 8,

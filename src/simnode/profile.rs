@@ -6,7 +6,7 @@
 use crate::bus::Frame;
 use crate::canopen::od::{EntrySpec, ObjectDictionary, ObjectId};
 use crate::canopen::sdo::{self, AbortCode, SdoServer};
-use crate::canopen::{DataType, NmtState, Value};
+use crate::canopen::{DataType, EmcyFrame, NmtState, Value};
 use crate::device::profile::cia401::{self, Scaling};
 use crate::device::profile::cia402::{self, DriveStateMachine, Mode, State};
 use crate::device::profile::mapping::{
@@ -737,12 +737,13 @@ impl ProfileNode {
     }
 
     fn emcy(&self, code: u16, register: u8) -> Frame {
-        let [lo, hi] = code.to_le_bytes();
-        Frame::new(
-            0x80 + u32::from(self.node_id),
-            &[lo, hi, register, 0, 0, 0, 0, 0],
-        )
-        .expect("an 11-bit id and 8 bytes")
+        EmcyFrame {
+            node_id: self.node_id,
+            error_code: code,
+            error_register: register,
+            manufacturer: [0; 5],
+        }
+        .encode()
     }
 
     fn publish_status(&mut self) {
