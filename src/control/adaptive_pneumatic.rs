@@ -27,6 +27,11 @@ pub struct PneumaticAdaptiveConfig {
     pub schedule: Vec<SchedulePoint>,
     /// `r` of the quadratic cost (m² per duty²).
     pub effort_weight_m2: f64,
+    /// The supply the gains are tuned at (Pa). Where the drive is stronger than there, the loop
+    /// keeps its nominal gains: the design's `K_I` is at most its nominal value (the extra drive
+    /// gain is loop gain the tuning's margin covers, and it only tightens tracking); where it is
+    /// weaker, the gains rise with the schedule. Without it every `K_I` is designed for.
+    pub nominal_supply_pa: Option<f64>,
     /// Identify and use the estimates (false: scheduling only).
     pub adapt: bool,
     /// DSFI forgetting factor λ (0.975 in the paper).
@@ -55,6 +60,7 @@ impl PneumaticAdaptiveConfig {
             period_s,
             schedule,
             effort_weight_m2,
+            nominal_supply_pa: None,
             adapt,
             forgetting: 0.975,
             supervision: EstimatorSupervisorConfig {
@@ -108,6 +114,8 @@ pub struct PneumaticAdaptive {
     effort_weight_m2: f64,
     adapt: bool,
     schedule: GainSchedule,
+    /// `[K_I1, K_I2]` at the nominal supply: the largest the design uses (infinite without one).
+    design_max: [f64; 2],
     controller: DirectionalP,
     estimators: [Dsfi; 2],
     supervisors: [EstimatorSupervisor; 2],
@@ -143,8 +151,21 @@ impl PneumaticAdaptive {
                 "must be finite and >= 0",
             ));
         }
+        let design_max = match config.nominal_supply_pa {
+            Some(p) if p.is_finite() => {
+                let k = schedule.step(p);
+                [k[0], k[1]]
+            }
+            Some(p) => {
+                return Err(ParamError::new(
+                    "nominal_supply_pa",
+                    format!("must be finite, got {p}"),
+                ))
+            }
+            None => [f64::INFINITY; 2],
+        };
         let k0 = schedule.step(f64::NEG_INFINITY);
-        let (k_down, k_up) = (k0[0], k0[1]);
+        let (k_down, k_up) = (k0[0].min(design_max[0]), k0[1].min(design_max[1]));
         let q = |k| integrator_lq_gain(k, config.period_s, config.effort_weight_m2);
         let (Some(q_down), Some(q_up)) = (q(k_down), q(k_up)) else {
             return Err(ParamError::new("schedule", "gives no valid gain"));
@@ -173,6 +194,7 @@ impl PneumaticAdaptive {
             effort_weight_m2: config.effort_weight_m2,
             adapt: config.adapt,
             schedule,
+            design_max,
             controller,
             estimators: [dsfi(k_down)?, dsfi(k_up)?],
             supervisors: [sup.clone(), sup],
@@ -255,8 +277,14 @@ impl PneumaticAdaptive {
                 source[d] = GainSource::Adapted;
             }
         }
+        // K_I,design = min(K_I, K_I(P_nominal)): a drive stronger than at the nominal supply
+        // keeps the nominal gains.
+        let design = [
+            k[DOWN].min(self.design_max[DOWN]),
+            k[UP].min(self.design_max[UP]),
+        ];
         let q = |k| integrator_lq_gain(k, self.period_s, self.effort_weight_m2);
-        if let (Some(qd), Some(qu)) = (q(k[DOWN]), q(k[UP])) {
+        if let (Some(qd), Some(qu)) = (q(design[DOWN]), q(design[UP])) {
             self.controller.set_gains(qd, qu);
         }
         let duty = self.controller.step(setpoint, position);
@@ -286,5 +314,52 @@ impl PneumaticAdaptive {
             let _ = self.estimators[d].reset_to(&[k[d], 0.0]);
             self.supervisors[d].reset();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn config(nominal_supply_pa: Option<f64>) -> PneumaticAdaptiveConfig {
+        let p = |supply: f64, k: f64| SchedulePoint {
+            supply,
+            params: vec![k, k],
+        };
+        PneumaticAdaptiveConfig {
+            nominal_supply_pa,
+            // The drive twice as strong at 40 kPa as at the nominal 60 kPa, half at 80 kPa.
+            ..PneumaticAdaptiveConfig::membrane_drive(
+                0.02,
+                vec![p(40_000.0, 0.06), p(60_000.0, 0.03), p(80_000.0, 0.015)],
+                0.0,
+                false,
+            )
+        }
+    }
+
+    fn gains_at(c: &PneumaticAdaptiveConfig, supply_pa: f64) -> (f64, f64) {
+        let mut a = PneumaticAdaptive::new(c).expect("valid");
+        let s = a.control(0.001, 0.0, supply_pa, 1.0);
+        (s.gain_down_per_m, s.gain_up_per_m)
+    }
+
+    #[test]
+    fn a_drive_stronger_than_at_the_nominal_supply_keeps_the_nominal_gains() {
+        let capped = config(Some(60_000.0));
+        let free = config(None);
+        // Deadbeat design (r = 0): q = 1 / (K_I T0).
+        let nominal = 1.0 / (0.03 * 0.02);
+        let (down, up) = gains_at(&capped, 60_000.0);
+        assert!((down - nominal).abs() < 1e-6 * nominal, "{down}");
+        assert!((up - nominal).abs() < 1e-6 * nominal, "{up}");
+        // Stronger drive: the schedule alone halves the gains, the cap keeps them.
+        assert!((gains_at(&free, 40_000.0).0 - nominal / 2.0).abs() < 1e-6 * nominal);
+        assert!((gains_at(&capped, 40_000.0).0 - nominal).abs() < 1e-6 * nominal);
+        // Weaker drive: both raise the gains with the schedule.
+        for c in [&capped, &free] {
+            assert!((gains_at(c, 80_000.0).1 - 2.0 * nominal).abs() < 1e-6 * nominal);
+        }
+        assert!(PneumaticAdaptive::new(&config(Some(f64::NAN))).is_err());
     }
 }

@@ -407,6 +407,9 @@ pub struct ScheduleSection {
     pub drive_gain_up_m_per_s: Option<Vec<f64>>,
     /// `r` of the cost `Σ e² + r U²`, m² per duty².
     pub effort_weight_m2: Option<f64>,
+    /// With drive gains: the supply pressure the gains are tuned at; a drive stronger than there
+    /// keeps the nominal gains (see `PneumaticAdaptiveConfig::nominal_supply_pa`).
+    pub nominal_supply_pa: Option<f64>,
     /// Errors within this give no command on a direction-P axis, m.
     #[serde(default)]
     pub deadband_m: f64,
@@ -1174,6 +1177,7 @@ impl AxisConfig {
             period_s,
             schedule,
             effort_weight_m2,
+            nominal_supply_pa: s.nominal_supply_pa,
             adapt: a.is_some(),
             forgetting: a.map_or(0.975, |a| a.forgetting),
             supervision: EstimatorSupervisorConfig {
