@@ -21,6 +21,9 @@ use crate::supervise::{
 
 /// The shipped solenoid plant (`config/plants/solenoid.toml`).
 pub const SOLENOID_PLANT: &str = include_str!("../../config/plants/solenoid.toml");
+/// The solenoid with the friction of the paper's small-step experiment
+/// (`config/plants/solenoid_fig17.toml`): the small-step and identification rows run on it.
+pub const SOLENOID_FIG17_PLANT: &str = include_str!("../../config/plants/solenoid_fig17.toml");
 /// The shipped pneumatic plant (`config/plants/pneumatic.toml`).
 pub const PNEUMATIC_PLANT: &str = include_str!("../../config/plants/pneumatic.toml");
 
@@ -302,9 +305,14 @@ pub fn solenoid_small_step_with(
     })
 }
 
-/// [`solenoid_small_step_on`] on the shipped solenoid plant.
+/// [`solenoid_small_step_on`] on the solenoid with the paper's friction
+/// ([`SOLENOID_FIG17_PLANT`]).
 pub fn solenoid_small_step(mode: SmallStepMode) -> Result<SmallStepResult, BenchError> {
-    solenoid_small_step_on(SOLENOID_PLANT, "config/plants/solenoid.toml", mode)
+    solenoid_small_step_on(
+        SOLENOID_FIG17_PLANT,
+        "config/plants/solenoid_fig17.toml",
+        mode,
+    )
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -762,7 +770,7 @@ fn model_band(paper: f64) -> Band {
 /// The identification rows: each direction's poles and gain against eq. (26), (27).
 fn identification_rows(rows: &mut Vec<PaperRow>) {
     let name = "solenoid identified";
-    match identify_solenoid_on(SOLENOID_PLANT, "config/plants/solenoid.toml") {
+    match identify_solenoid_on(SOLENOID_FIG17_PLANT, "config/plants/solenoid_fig17.toml") {
         Ok(id) => {
             for (dir, ours, paper, n) in [
                 ("G+", id.positive, ThirdOrder::PAPER_POS, id.samples.0),
