@@ -36,4 +36,5 @@ fn comparison_table_has_the_papers_rows_and_plausible_figures() {
     assert!(b.robust > b.pid_fc, "{b}");
     let json = serde_json::to_string(&rows).expect("serialise");
     assert!(json.contains("\"paper_pid_fc\":5.67"));
+    assert!(json.contains("\"verdict_robust\":"));
 }

@@ -10,8 +10,8 @@ use serde::Serialize;
 use super::fault_table::{FaultTableOptions, Simulation};
 use crate::control::{
     effort_weight_for_pole, AdaptiveFriction, AdaptiveFrictionConfig, DirectionalP,
-    DirectionalPConfig, DiscreteController, ParamError, PneumaticAdaptive, PneumaticAdaptiveConfig,
-    SchedulePoint,
+    DirectionalPConfig, DiscreteController, Dither, DitherConfig, ParamError, PneumaticAdaptive,
+    PneumaticAdaptiveConfig, SchedulePoint,
 };
 use crate::physics::{plant_from_str, Fault, FaultKind};
 use crate::supervise::{
@@ -21,6 +21,9 @@ use crate::supervise::{
 
 /// The shipped solenoid plant (`config/plants/solenoid.toml`).
 pub const SOLENOID_PLANT: &str = include_str!("../../config/plants/solenoid.toml");
+/// The solenoid with the friction of the paper's small-step experiment
+/// (`config/plants/solenoid_fig17.toml`): the small-step and identification rows run on it.
+pub const SOLENOID_FIG17_PLANT: &str = include_str!("../../config/plants/solenoid_fig17.toml");
 /// The shipped pneumatic plant (`config/plants/pneumatic.toml`).
 pub const PNEUMATIC_PLANT: &str = include_str!("../../config/plants/pneumatic.toml");
 
@@ -42,7 +45,49 @@ pub enum BenchError {
     Failed(String),
 }
 
-/// One row of the bench: the experiment, the paper's figure, ours.
+/// Which way a figure is better than the paper's band.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Better {
+    /// Smaller is better (offsets, errors, settling times, detection times).
+    Lower,
+    /// Larger is better (shares, bandwidths).
+    Higher,
+    /// Neither: a model figure that should match (identified poles and gains).
+    Match,
+}
+
+/// The paper's band for a figure, `[min, max]` in the row's unit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Band {
+    pub min: f64,
+    pub max: f64,
+    pub better: Better,
+}
+
+impl Band {
+    pub const fn new(min: f64, max: f64, better: Better) -> Self {
+        Band { min, max, better }
+    }
+
+    /// `inside`, `better`, `worse` (or `off` for a model figure outside its band, `failed`
+    /// for a missing figure).
+    pub fn verdict(&self, ours: f64) -> &'static str {
+        if !ours.is_finite() {
+            "failed"
+        } else if ours >= self.min && ours <= self.max {
+            "inside"
+        } else {
+            match (self.better, ours < self.min) {
+                (Better::Lower, true) | (Better::Higher, false) => "better",
+                (Better::Lower, false) | (Better::Higher, true) => "worse",
+                (Better::Match, _) => "off",
+            }
+        }
+    }
+}
+
+/// One row of the bench: the experiment, the paper's figure, ours, the verdict.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PaperRow {
     pub experiment: String,
@@ -53,6 +98,12 @@ pub struct PaperRow {
     pub unit: String,
     /// Our result in words.
     pub ours_text: String,
+    /// The paper's band in `unit` (null where the paper gives no number).
+    pub paper_min: Option<f64>,
+    pub paper_max: Option<f64>,
+    /// `inside` the paper's band, `better`, `worse`, `off` (a model figure outside its band),
+    /// `no band`, or `failed`.
+    pub verdict: String,
 }
 
 /// A table of rows for printing.
@@ -76,14 +127,14 @@ impl fmt::Display for PaperTable<'_> {
             .max(5);
         writeln!(
             f,
-            "{:<w0$}  {:<w1$}  {:>10} {:<4}  result",
-            "experiment", "paper", "ours", ""
+            "{:<w0$}  {:<w1$}  {:>10} {:<5}  {:<7}  result",
+            "experiment", "paper", "ours", "", "verdict"
         )?;
         for r in self.0 {
             writeln!(
                 f,
-                "{:<w0$}  {:<w1$}  {:>10.4} {:<4}  {}",
-                r.experiment, r.paper, r.ours, r.unit, r.ours_text
+                "{:<w0$}  {:<w1$}  {:>10.4} {:<5}  {:<7}  {}",
+                r.experiment, r.paper, r.ours, r.unit, r.verdict, r.ours_text
             )?;
         }
         Ok(())
@@ -93,52 +144,135 @@ impl fmt::Display for PaperTable<'_> {
 // ---------------------------------------------------------------------------------------------
 // Solenoid: small-step steady offset, linear control vs adaptive friction compensation.
 
-/// Set-points of the small-step experiment (m): a warm-up tour, then small steps around 5 mm.
-fn small_step_setpoints() -> Vec<f64> {
-    let mut w = vec![0.005, 0.0053, 0.005, 0.0047, 0.005, 0.0052, 0.0049];
-    for i in 0..16 {
-        let s = if i % 2 == 0 { 1.0 } else { -1.0 };
-        let size = [0.1e-3, 0.2e-3, 0.3e-3, 0.15e-3][i % 4];
-        w.push(0.005 + s * size);
-    }
-    w
+/// Operating point of the small-step experiment (m): the paper's Fig. 17 runs around 17.5 mm,
+/// in the range (17-25 mm) where linear control without the correction was unstable.
+pub const SMALL_STEP_CENTRE_M: f64 = 0.0175;
+/// Size of the small set-point steps (m): Fig. 17 steps between about 17.3 and 17.7 mm.
+pub const SMALL_STEP_SIZE_M: f64 = 0.0002;
+/// Dwell of each small step (s): Fig. 17 shows five or so steps over 5.5 s.
+pub const SMALL_STEP_HOLD_S: f64 = 1.0;
+/// The offset is read as the mean `|e|` over the last part of each dwell (s): "in steady state".
+pub const SMALL_STEP_READ_S: f64 = 0.1;
+/// Steps of the warm-up (not measured): the approach to the operating point from the rest stop
+/// and the first reversals, while the adaptive compensation starts from zero.
+const SMALL_STEP_WARMUP: usize = 3;
+/// Measured steps.
+const SMALL_STEP_MEASURED: usize = 12;
+
+/// Set-points of the small-step experiment (m): the approach, then steps of
+/// `±SMALL_STEP_SIZE_M / 2` around the centre, alternating up and down.
+pub fn small_step_setpoints() -> Vec<f64> {
+    let half = 0.5 * SMALL_STEP_SIZE_M;
+    (0..SMALL_STEP_WARMUP + SMALL_STEP_MEASURED)
+        .map(|i| {
+            if i == 0 {
+                SMALL_STEP_CENTRE_M
+            } else if i % 2 == 1 {
+                SMALL_STEP_CENTRE_M + half
+            } else {
+                SMALL_STEP_CENTRE_M - half
+            }
+        })
+        .collect()
 }
 
-/// Hold time of each small step (s).
-const SMALL_STEP_HOLD_S: f64 = 0.3;
-/// Steps of the warm-up (not measured).
-const SMALL_STEP_WARMUP: usize = 7;
+/// How the small steps are controlled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SmallStepMode {
+    /// The paper's PIDT1 alone.
+    Linear,
+    /// PIDT1 plus adaptive friction compensation (reference model and friction controller).
+    AdaptiveFriction,
+    /// PIDT1 plus a dither that adapts its amplitude and frequency.
+    AdaptiveDither,
+}
 
-/// Mean `|e|` over the last 0.1 s of each measured step (m), and the compensation values at the
-/// end (V), with the paper's PIDT1 and, optionally, adaptive friction compensation.
-pub fn solenoid_small_step_offset(adaptive: bool) -> Result<(f64, (f64, f64)), BenchError> {
-    let mut plant = plant_from_str(SOLENOID_PLANT, "config/plants/solenoid.toml")?;
-    let t0 = SOLENOID_PERIOD_S;
-    // Paper PIDT1, Y in mm → ×1000 for V per m.
-    let mut pid = DiscreteController::pidt1([2231.0, -4204.0, 2000.0], 0.616, 0.0, 24.0)?;
-    let mut friction = AdaptiveFriction::new(AdaptiveFrictionConfig {
-        period_s: t0,
-        model_time_constant_s: 0.03,
-        adaptation_gain_per_m_s: 2000.0,
-        max_compensation: 0.4,
-        initial_pos: 0.0,
-        initial_neg: 0.0,
+/// Result of one small-step run.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SmallStepResult {
+    /// Mean `|e|` over the read window of the measured steps (m).
+    pub offset_m: f64,
+    /// Largest of the per-step offsets (m).
+    pub worst_offset_m: f64,
+    /// `U_comp+`, `U_comp-` at the end (V; zero without adaptive compensation).
+    pub compensation: (f64, f64),
+    /// Dither amplitude (V) and frequency (Hz) at the end (zero without dither).
+    pub dither: (f64, f64),
+}
+
+/// The adaptive friction compensation of `config/solenoid.toml`, starting from the feed-forward
+/// values `α F_C / (K_I K_Mag) = 0.8 · 0.55 N / 1.63 N/V = 0.27 V`.
+pub fn solenoid_adaptive_friction_config() -> AdaptiveFrictionConfig {
+    AdaptiveFrictionConfig {
+        period_s: SOLENOID_PERIOD_S,
+        model_time_constant_s: 0.015,
+        adaptation_gain_per_m_s: 20_000.0,
+        max_compensation: 1.0,
+        initial_pos: 0.27,
+        initial_neg: 0.27,
         error_deadband_m: 3e-6,
         model_deadband_m: 10e-6,
         settled_band_m: 20e-6,
-    })?;
+    }
+}
+
+/// The self-adapting dither of the small-step experiment.
+fn solenoid_dither() -> Result<Dither, ParamError> {
+    Dither::new(DitherConfig {
+        period_s: SOLENOID_PERIOD_S,
+        amplitude: 0.2,
+        frequency_hz: 50.0,
+        adapt: true,
+        amplitude_min: 0.05,
+        amplitude_max: 3.0,
+        frequency_min_hz: 20.0,
+        frequency_max_hz: 100.0,
+        amplitude_rate_per_s: 4.0,
+        frequency_rate_per_s: 1.0,
+        error_tolerance_m: 30e-6,
+        ripple_moving_m: 0.5e-6,
+        ripple_max_m: 10e-6,
+        ripple_time_constant_s: 0.05,
+    })
+}
+
+/// The paper's small-step experiment on the solenoid plant `plant_text` (TOML, named `name` in
+/// errors): steps of [`SMALL_STEP_SIZE_M`] around [`SMALL_STEP_CENTRE_M`], each held
+/// [`SMALL_STEP_HOLD_S`], the offset read over the last [`SMALL_STEP_READ_S`] of each dwell,
+/// with the paper's PIDT1 (eq. 28) and the chosen compensation.
+pub fn solenoid_small_step_on(
+    plant_text: &str,
+    name: &str,
+    mode: SmallStepMode,
+) -> Result<SmallStepResult, BenchError> {
+    solenoid_small_step_with(plant_text, name, mode, solenoid_adaptive_friction_config())
+}
+
+/// [`solenoid_small_step_on`] with another adaptive friction compensation.
+pub fn solenoid_small_step_with(
+    plant_text: &str,
+    name: &str,
+    mode: SmallStepMode,
+    friction_config: AdaptiveFrictionConfig,
+) -> Result<SmallStepResult, BenchError> {
+    let mut plant = plant_from_str(plant_text, name)?;
+    let t0 = SOLENOID_PERIOD_S;
+    // Paper PIDT1, Y in mm → ×1000 for V per m.
+    let mut pid = DiscreteController::pidt1([2231.0, -4204.0, 2000.0], 0.616, 0.0, 24.0)?;
+    let mut friction = AdaptiveFriction::new(friction_config)?;
+    let mut dither = solenoid_dither()?;
     let hold = (SMALL_STEP_HOLD_S / t0).round() as usize;
-    let tail = (0.05 / t0).round() as usize;
-    let mut sum = 0.0;
-    let mut n = 0usize;
+    let tail = (SMALL_STEP_READ_S / t0).round() as usize;
+    let (mut sum, mut n, mut worst) = (0.0, 0usize, 0.0_f64);
     let mut y = plant.measure().position;
     for (i, w) in small_step_setpoints().into_iter().enumerate() {
+        let mut step_sum = 0.0;
         for k in 0..hold {
             let e = w - y;
-            let comp = if adaptive {
-                friction.step(w, y).compensation
-            } else {
-                0.0
+            let comp = match mode {
+                SmallStepMode::Linear => 0.0,
+                SmallStepMode::AdaptiveFriction => friction.step(w, y).compensation,
+                SmallStepMode::AdaptiveDither => dither.step(w, y),
             };
             let u_pid = pid.propose(e);
             let u = (u_pid + comp).clamp(0.0, 24.0);
@@ -146,12 +280,169 @@ pub fn solenoid_small_step_offset(adaptive: bool) -> Result<(f64, (f64, f64)), B
             plant.step(u, t0);
             y = plant.measure().position;
             if i >= SMALL_STEP_WARMUP && k >= hold - tail {
-                sum += (w - y).abs();
-                n += 1;
+                step_sum += (w - y).abs();
             }
         }
+        if i >= SMALL_STEP_WARMUP {
+            sum += step_sum;
+            n += tail;
+            worst = worst.max(step_sum / tail as f64);
+        }
     }
-    Ok((sum / n.max(1) as f64, friction.compensation_values()))
+    let compensation = match mode {
+        SmallStepMode::AdaptiveFriction => friction.compensation_values(),
+        _ => (0.0, 0.0),
+    };
+    let dither_state = match mode {
+        SmallStepMode::AdaptiveDither => (dither.amplitude(), dither.frequency_hz()),
+        _ => (0.0, 0.0),
+    };
+    Ok(SmallStepResult {
+        offset_m: sum / n.max(1) as f64,
+        worst_offset_m: worst,
+        compensation,
+        dither: dither_state,
+    })
+}
+
+/// [`solenoid_small_step_on`] on the solenoid with the paper's friction
+/// ([`SOLENOID_FIG17_PLANT`]).
+pub fn solenoid_small_step(mode: SmallStepMode) -> Result<SmallStepResult, BenchError> {
+    solenoid_small_step_on(
+        SOLENOID_FIG17_PLANT,
+        "config/plants/solenoid_fig17.toml",
+        mode,
+    )
+}
+
+// ---------------------------------------------------------------------------------------------
+// Solenoid: direction-dependent identification against the paper's G+(s), G-(s).
+
+/// Third-order model per direction in the paper's form `K ω0² a / ((s + a)(s² + 2 D ω0 s + ω0²))`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ThirdOrder {
+    /// Real (current) pole `a` (rad/s).
+    pub real_pole: f64,
+    /// `2 D ω0` of the quadratic (1/s).
+    pub quad_s1: f64,
+    /// `ω0²` of the quadratic (1/s²).
+    pub quad_s0: f64,
+    /// Static gain (mm/V).
+    pub gain_mm_per_v: f64,
+}
+
+impl ThirdOrder {
+    /// The paper's `G+(s) = 382400 / ((s + 116.4)(s² + 40.4 s + 3329.4))` (eq. 26).
+    pub const PAPER_POS: ThirdOrder = ThirdOrder {
+        real_pole: 116.4,
+        quad_s1: 40.4,
+        quad_s0: 3329.4,
+        gain_mm_per_v: 382_400.0 / (116.4 * 3329.4),
+    };
+    /// The paper's `G-(s) = 220100 / ((s + 47.9)(s² + 47.9 s + 3444.5))` (eq. 27).
+    pub const PAPER_NEG: ThirdOrder = ThirdOrder {
+        real_pole: 47.9,
+        quad_s1: 47.9,
+        quad_s0: 3444.5,
+        gain_mm_per_v: 220_100.0 / (47.9 * 3444.5),
+    };
+}
+
+/// Identified models of both directions.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct SolenoidIdentification {
+    pub positive: ThirdOrder,
+    pub negative: ThirdOrder,
+    /// Monotone samples used per direction.
+    pub samples: (usize, usize),
+}
+
+/// Continuous poles `s = ln(z) / T_0` of `1 + a1 z⁻¹ + a2 z⁻² + a3 z⁻³` as a third-order model.
+fn third_order_from_arx(a: &[f64], gain_m_per_v: f64, t0: f64) -> Option<ThirdOrder> {
+    if a.len() != 3 {
+        return None;
+    }
+    // Companion matrix of z³ + a1 z² + a2 z + a3.
+    let m = nalgebra::Matrix3::new(-a[0], -a[1], -a[2], 1.0, 0.0, 0.0, 0.0, 1.0, 0.0);
+    let z = m.complex_eigenvalues();
+    let s: Vec<nalgebra::Complex<f64>> = z.iter().map(|z| z.ln() / t0).collect();
+    // The real pole is the one with the smallest imaginary part; with three real poles the
+    // quadratic is the slowest pair.
+    let mut idx = [0usize, 1, 2];
+    idx.sort_by(|&i, &j| s[i].im.abs().total_cmp(&s[j].im.abs()));
+    let (real, p1, p2) = if s[idx[1]].im.abs() < 1e-9 {
+        // All real: the fastest is the current pole.
+        let mut r = [s[0].re, s[1].re, s[2].re];
+        r.sort_by(|x, y| x.total_cmp(y));
+        (
+            r[0],
+            nalgebra::Complex::new(r[1], 0.0),
+            nalgebra::Complex::new(r[2], 0.0),
+        )
+    } else {
+        (s[idx[0]].re, s[idx[1]], s[idx[2]])
+    };
+    let sum = p1 + p2;
+    let prod = p1 * p2;
+    Some(ThirdOrder {
+        real_pole: -real,
+        quad_s1: -sum.re,
+        quad_s0: prod.re,
+        gain_mm_per_v: gain_m_per_v * 1e3,
+    })
+}
+
+/// Identifies the simulated solenoid `plant_text` the way the paper did: open-loop excitation at
+/// 400 Hz that moves the armature up and down through the working range (steps of the PWM
+/// voltage about the operating point, Fig. 8), then one third-order ARX model per direction from
+/// the samples of monotone motion only (least squares, offsets absorbing the Coulomb friction).
+pub fn identify_solenoid_on(
+    plant_text: &str,
+    name: &str,
+) -> Result<SolenoidIdentification, BenchError> {
+    use crate::ident::{fit_directional, ArxOrder, Direction, DirectionalSelection};
+    let mut plant = plant_from_str(plant_text, name)?;
+    let t0 = SOLENOID_PERIOD_S;
+    let mut rng = crate::physics::rng::SplitMix64::new(7);
+    let (mut ys, mut us) = (Vec::new(), Vec::new());
+    // Hold each level long enough for the mechanics (1/ω0 = 17 ms) to move, short enough not to
+    // settle: 25-100 ms, levels between 14 and 22 V around the 17.5 mm operating point.
+    let mut u = 18.0;
+    let mut left = 0usize;
+    for _ in 0..(40.0 / t0) as usize {
+        if left == 0 {
+            u = 14.0 + 8.0 * rng.uniform();
+            left = 10 + (30.0 * rng.uniform()) as usize;
+        }
+        left -= 1;
+        plant.step(u, t0);
+        ys.push(plant.measure().position);
+        us.push(u);
+    }
+    let order = ArxOrder {
+        na: 3,
+        nb: 3,
+        delay: 0,
+    };
+    let selection = DirectionalSelection {
+        order,
+        window: 3,
+        min_step: 2e-6,
+    };
+    let fit = fit_directional(&ys, &us, &selection)
+        .map_err(|e| BenchError::Failed(format!("identification: {e}")))?;
+    let model = |d: Direction| -> Result<ThirdOrder, BenchError> {
+        let p = fit
+            .parameters(d)
+            .map_err(|e| BenchError::Failed(format!("identification: {e}")))?;
+        third_order_from_arx(&p.a, p.static_gain(), t0)
+            .ok_or_else(|| BenchError::Failed("identification: no third-order model".into()))
+    };
+    Ok(SolenoidIdentification {
+        positive: model(Direction::Positive)?,
+        negative: model(Direction::Negative)?,
+        samples: (fit.positive_samples.len(), fit.negative_samples.len()),
+    })
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -436,49 +727,154 @@ pub fn observer_friction_rise() -> Result<FrictionRace, BenchError> {
 
 // ---------------------------------------------------------------------------------------------
 
-fn row(experiment: &str, paper: &str, ours: f64, unit: &str, text: String) -> PaperRow {
+fn row(
+    experiment: &str,
+    paper: &str,
+    band: Option<Band>,
+    ours: f64,
+    unit: &str,
+    text: String,
+) -> PaperRow {
     PaperRow {
         experiment: experiment.to_string(),
         paper: paper.to_string(),
         ours,
         unit: unit.to_string(),
         ours_text: text,
+        paper_min: band.map(|b| b.min),
+        paper_max: band.map(|b| b.max),
+        verdict: match band {
+            Some(b) => b.verdict(ours).to_string(),
+            None if ours.is_finite() => "no band".to_string(),
+            None => "failed".to_string(),
+        },
     }
 }
 
-fn failed(experiment: &str, paper: &str, e: BenchError) -> PaperRow {
-    row(experiment, paper, f64::NAN, "", format!("failed: {e}"))
+fn failed(experiment: &str, paper: &str, band: Option<Band>, e: BenchError) -> PaperRow {
+    row(
+        experiment,
+        paper,
+        band,
+        f64::NAN,
+        "",
+        format!("failed: {e}"),
+    )
+}
+
+/// Band of ±10 % around one of the paper's identified model figures.
+fn model_band(paper: f64) -> Band {
+    Band::new(0.9 * paper, 1.1 * paper, Better::Match)
+}
+
+/// The identification rows: each direction's poles and gain against eq. (26), (27).
+fn identification_rows(rows: &mut Vec<PaperRow>) {
+    let name = "solenoid identified";
+    match identify_solenoid_on(SOLENOID_FIG17_PLANT, "config/plants/solenoid_fig17.toml") {
+        Ok(id) => {
+            for (dir, ours, paper, n) in [
+                ("G+", id.positive, ThirdOrder::PAPER_POS, id.samples.0),
+                ("G-", id.negative, ThirdOrder::PAPER_NEG, id.samples.1),
+            ] {
+                for (what, unit, o, p) in [
+                    ("current pole", "rad/s", ours.real_pole, paper.real_pole),
+                    ("2 D w0", "1/s", ours.quad_s1, paper.quad_s1),
+                    ("w0^2", "1/s2", ours.quad_s0, paper.quad_s0),
+                    (
+                        "static gain",
+                        "mm/V",
+                        ours.gain_mm_per_v,
+                        paper.gain_mm_per_v,
+                    ),
+                ] {
+                    rows.push(row(
+                        &format!("{name} {dir}: {what}"),
+                        &format!("{p:.4} (eq. 26/27, +-10 %)"),
+                        Some(model_band(p)),
+                        o,
+                        unit,
+                        format!("directional LS, 3rd order, {n} monotone samples"),
+                    ));
+                }
+            }
+        }
+        Err(e) => rows.push(failed(name, "G+(s), G-(s)", None, e)),
+    }
 }
 
 /// All experiments, one row each (plus one per supply pressure and strategy).
 pub fn run_paper_bench() -> Vec<PaperRow> {
     let mut rows = Vec::new();
+    identification_rows(&mut rows);
     let paper_lin = "110-140 um";
+    let band_lin = Band::new(110.0, 140.0, Better::Match);
     let paper_ad = "25-50 um";
+    let band_ad = Band::new(25.0, 50.0, Better::Lower);
+    let protocol = format!(
+        "steps of {:.1} mm at {:.1} mm, {:.1} s dwell, mean |e| over the last {:.1} s",
+        SMALL_STEP_SIZE_M * 1e3,
+        SMALL_STEP_CENTRE_M * 1e3,
+        SMALL_STEP_HOLD_S,
+        SMALL_STEP_READ_S
+    );
     match (
-        solenoid_small_step_offset(false),
-        solenoid_small_step_offset(true),
+        solenoid_small_step(SmallStepMode::Linear),
+        solenoid_small_step(SmallStepMode::AdaptiveFriction),
     ) {
-        (Ok((lin, _)), Ok((ad, (cp, cn)))) => {
+        (Ok(lin), Ok(ad)) => {
+            let (cp, cn) = ad.compensation;
             rows.push(row(
                 "solenoid small-step offset, linear PIDT1",
                 paper_lin,
-                lin * 1e6,
+                Some(band_lin),
+                lin.offset_m * 1e6,
                 "um",
-                "mean |e| at the end of small steps".into(),
+                format!("{protocol}; worst step {:.0} um", lin.worst_offset_m * 1e6),
             ));
             rows.push(row(
                 "solenoid small-step offset, adaptive friction comp.",
                 paper_ad,
-                ad * 1e6,
+                Some(band_ad),
+                ad.offset_m * 1e6,
                 "um",
                 format!(
-                    "ratio linear/adaptive {:.1} (paper 2.2-5.6); U_comp+ {cp:.3} V, U_comp- {cn:.3} V",
-                    lin / ad
+                    "worst step {:.0} um; U_comp+ {cp:.3} V, U_comp- {cn:.3} V",
+                    ad.worst_offset_m * 1e6
                 ),
             ));
+            rows.push(row(
+                "solenoid offset ratio linear/adaptive",
+                "2.2-5.6 (110-140 / 25-50)",
+                Some(Band::new(2.2, 5.6, Better::Higher)),
+                lin.offset_m / ad.offset_m,
+                "",
+                "same steps, same plant".into(),
+            ));
         }
-        (Err(e), _) | (_, Err(e)) => rows.push(failed("solenoid small-step offset", paper_lin, e)),
+        (Err(e), _) | (_, Err(e)) => rows.push(failed(
+            "solenoid small-step offset",
+            paper_lin,
+            Some(band_lin),
+            e,
+        )),
+    }
+    let exp = "solenoid small-step offset, adaptive dither";
+    let paper = "dither adapts amplitude and frequency (no figure)";
+    match solenoid_small_step(SmallStepMode::AdaptiveDither) {
+        Ok(d) => rows.push(row(
+            exp,
+            paper,
+            None,
+            d.offset_m * 1e6,
+            "um",
+            format!(
+                "worst step {:.0} um; amplitude {:.2} V, frequency {:.0} Hz at the end",
+                d.worst_offset_m * 1e6,
+                d.dither.0,
+                d.dither.1
+            ),
+        )),
+        Err(e) => rows.push(failed(exp, paper, None, e)),
     }
     for (strategy, name) in [
         (PneumaticStrategy::Fixed, "fixed"),
@@ -491,15 +887,31 @@ pub fn run_paper_bench() -> Vec<PaperRow> {
                 p / 100.0
             );
             let paper = "bandwidth 1-6 Hz fixed, ~6 Hz adaptive; 15-20 um";
+            let exp_acc = format!(
+                "pneumatic steady accuracy, {name}, P_L {:.0} mbar",
+                p / 100.0
+            );
+            let band_acc = Band::new(15.0, 20.0, Better::Lower);
             match pneumatic_settling(strategy, p) {
-                Ok((ts, acc)) => rows.push(row(
-                    &exp,
-                    paper,
-                    ts,
-                    "s",
-                    format!("into ±20 %, steady |e| {:.0} um", acc * 1e6),
-                )),
-                Err(e) => rows.push(failed(&exp, paper, e)),
+                Ok((ts, acc)) => {
+                    rows.push(row(
+                        &exp,
+                        paper,
+                        None,
+                        ts,
+                        "s",
+                        format!("into ±20 %, steady |e| {:.0} um", acc * 1e6),
+                    ));
+                    rows.push(row(
+                        &exp_acc,
+                        "15-20 um",
+                        Some(band_acc),
+                        acc * 1e6,
+                        "um",
+                        "mean |e| over the last 0.3 s of each 1.5 s step".into(),
+                    ));
+                }
+                Err(e) => rows.push(failed(&exp, paper, None, e)),
             }
         }
     }
@@ -512,6 +924,7 @@ pub fn run_paper_bench() -> Vec<PaperRow> {
                 rows.push(row(
                     &format!("diagnosis {} ({})", r.expected.label(), r.expected.name()),
                     "distinct symptom pattern (Table 2)",
+                    Some(Band::new(1.0, 1.0, Better::Higher)),
                     r.correct_windows as f64 / r.windows.max(1) as f64,
                     "share",
                     format!(
@@ -522,7 +935,7 @@ pub fn run_paper_bench() -> Vec<PaperRow> {
                 ));
             }
         }
-        Err(e) => rows.push(failed("diagnosis F1-F4", "Table 2", e)),
+        Err(e) => rows.push(failed("diagnosis F1-F4", "Table 2", None, e)),
     }
     match observer_friction_rise() {
         Ok(r) => {
@@ -531,6 +944,7 @@ pub fn run_paper_bench() -> Vec<PaperRow> {
             rows.push(row(
                 "observer: slow friction rise (x1 -> x4 over 60 s)",
                 "x4 leaves its bands while the position still follows",
+                None,
                 r.observer_s.unwrap_or(f64::NAN),
                 "s",
                 format!(
@@ -542,7 +956,7 @@ pub fn run_paper_bench() -> Vec<PaperRow> {
                 ),
             ));
         }
-        Err(e) => rows.push(failed("observer friction rise", "", e)),
+        Err(e) => rows.push(failed("observer friction rise", "", None, e)),
     }
     rows
 }

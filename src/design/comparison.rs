@@ -126,6 +126,39 @@ pub struct ComparisonRow {
     /// The paper's figure where the text gives one.
     pub paper_pid_fc: Option<f64>,
     pub paper_robust: Option<f64>,
+    /// Each controller against the paper's figure: `inside` its band, `better`, `worse`, or
+    /// `no figure` ([`verdict`]).
+    pub verdict_pid_fc: String,
+    pub verdict_robust: String,
+}
+
+/// The band around one of the paper's figures: ±50 % of it, or ±10 points for an amplitude
+/// error the paper gives as zero ("keeps the amplitude").
+pub fn paper_band(paper: f64) -> (f64, f64) {
+    if paper.abs() < 1e-9 {
+        (-10.0, 10.0)
+    } else {
+        (paper - 0.5 * paper.abs(), paper + 0.5 * paper.abs())
+    }
+}
+
+/// `inside` the band of [`paper_band`], else `better` or `worse` by the metric's sense (a phase
+/// lag is better smaller, an amplitude error or a bandwidth larger), `no figure` without one.
+pub fn verdict(metric: &str, ours: f64, paper: Option<f64>) -> String {
+    let Some(p) = paper else {
+        return "no figure".into();
+    };
+    let (lo, hi) = paper_band(p);
+    let v = if !ours.is_finite() {
+        "failed"
+    } else if ours >= lo && ours <= hi {
+        "inside"
+    } else if (metric == "phase lag") == (ours < lo) {
+        "better"
+    } else {
+        "worse"
+    };
+    v.into()
 }
 
 impl fmt::Display for ComparisonRow {
@@ -133,14 +166,16 @@ impl fmt::Display for ComparisonRow {
         let o = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.2}"));
         write!(
             f,
-            "{:<16} {:<16} {:>6} {:>10.2} {:>10.2} {:>10} {:>10}",
+            "{:<16} {:<16} {:>6} {:>10.2} {:>10.2} {:>10} {:>10}  {:<9} {:<9}",
             self.test,
             self.metric,
             self.unit,
             self.pid_fc,
             self.robust,
             o(self.paper_pid_fc),
-            o(self.paper_robust)
+            o(self.paper_robust),
+            self.verdict_pid_fc,
+            self.verdict_robust
         )
     }
 }
@@ -152,8 +187,16 @@ impl fmt::Display for ComparisonTable<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
-            "{:<16} {:<16} {:>6} {:>10} {:>10} {:>10} {:>10}",
-            "test", "metric", "unit", "PID+FC", "robust", "paper PID", "paper rob."
+            "{:<16} {:<16} {:>6} {:>10} {:>10} {:>10} {:>10}  {:<9} {:<9}",
+            "test",
+            "metric",
+            "unit",
+            "PID+FC",
+            "robust",
+            "paper PID",
+            "paper rob.",
+            "PID+FC",
+            "robust"
         )?;
         for r in self.0 {
             writeln!(f, "{r}")?;
@@ -369,6 +412,8 @@ pub fn run_comparison(
                     robust: (r0 - 1.0) * 100.0,
                     paper_pid_fc: paper.0,
                     paper_robust: paper.1,
+                    verdict_pid_fc: String::new(),
+                    verdict_robust: String::new(),
                 });
                 rows.push(ComparisonRow {
                     test,
@@ -378,6 +423,8 @@ pub fn run_comparison(
                     robust: lag_deg(r1),
                     paper_pid_fc: paper.2,
                     paper_robust: paper.3,
+                    verdict_pid_fc: String::new(),
+                    verdict_robust: String::new(),
                 });
             }
             Job::Band(deg) => {
@@ -394,9 +441,15 @@ pub fn run_comparison(
                     robust: r0,
                     paper_pid_fc: pp,
                     paper_robust: pr,
+                    verdict_pid_fc: String::new(),
+                    verdict_robust: String::new(),
                 });
             }
         }
+    }
+    for r in &mut rows {
+        r.verdict_pid_fc = verdict(&r.metric, r.pid_fc, r.paper_pid_fc);
+        r.verdict_robust = verdict(&r.metric, r.robust, r.paper_robust);
     }
     Ok(rows)
 }
@@ -429,6 +482,23 @@ fn paper_figures(hz: f64, deg: f64) -> (Option<f64>, Option<f64>, Option<f64>, O
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn verdicts_follow_the_metric_and_the_papers_band() {
+        // PID+FC at 2 Hz: paper 5.67°, band 2.8-8.5°.
+        assert_eq!(verdict("phase lag", 5.0, Some(5.67)), "inside");
+        assert_eq!(verdict("phase lag", 31.7, Some(5.67)), "worse");
+        assert_eq!(verdict("phase lag", 1.0, Some(5.67)), "better");
+        // Robust at 20 Hz: the paper keeps the amplitude, band -10..10 %.
+        assert_eq!(verdict("amplitude error", -78.0, Some(0.0)), "worse");
+        assert_eq!(verdict("amplitude error", -5.0, Some(0.0)), "inside");
+        // PID+FC at 20 Hz loses about 50 %: band -75..-25 %.
+        assert_eq!(verdict("amplitude error", -10.0, Some(-50.0)), "better");
+        assert_eq!(verdict("-3 dB bandwidth", 13.6, Some(61.0)), "worse");
+        assert_eq!(verdict("-3 dB bandwidth", 100.0, Some(61.0)), "better");
+        assert_eq!(verdict("-3 dB bandwidth", 13.6, None), "no figure");
+    }
+
     use super::*;
 
     #[test]
