@@ -9,6 +9,7 @@
 //! - [`simnode`]: a simulated actuator node speaking the protocol.
 //! - [`daemon`]: the real-time cycle, configuration, recording.
 //! - [`lab`]: comparing models with measurements.
+//! - [`tune`]: from a fitted model to an axis configuration.
 //! - [`defaults`]: the reference configurations and plant files, built in.
 
 pub mod bench;
@@ -26,3 +27,4 @@ pub mod lockstep;
 pub mod physics;
 pub mod simnode;
 pub mod supervise;
+pub mod tune;
