@@ -6,7 +6,7 @@
 use std::fmt;
 use std::path::Path;
 
-use super::design::{analyse, goal_poles, place, Analysis, Controller};
+use super::design::{analyse, command_response, goal_poles, place, Analysis, Controller};
 use super::edit::{round_sig, Change, Editor, Kept};
 use super::fitted::Fitted;
 use super::plant::{corners, design_parameters, AxisModel, Direction};
@@ -135,13 +135,110 @@ fn largest_step(config: &Config, axis: usize) -> Option<f64> {
     (largest > 0.0).then_some(largest)
 }
 
+/// The largest bandwidth whose design keeps the command inside the drive's limits on the
+/// configured tour, and at most `0.1 / T0`.
+fn drive_limited_bandwidth(
+    model: &AxisModel,
+    config: &Config,
+    axis: usize,
+    goal: Goal,
+    period_s: f64,
+) -> Result<(f64, String), String> {
+    let a = &config.axis[axis];
+    let (u_min, u_max) = (a.controller.output_min, a.controller.output_max);
+    let k = model.gain[0].min(model.gain[1]);
+    // The command that holds the axis at each position of the tour against its spring.
+    let positions: Vec<f64> = std::iter::once(a.initial_setpoint_m)
+        .chain(a.setpoints.iter().map(|s| s.position_m))
+        .collect();
+    let headroom = positions
+        .iter()
+        .map(|y| {
+            let hold = (model.stiffness * y + model.pretension) / k;
+            (u_max - hold).min(hold - u_min)
+        })
+        .fold(f64::INFINITY, f64::min);
+    if headroom <= 0.0 {
+        return Err(format!(
+            "the drive cannot hold every position of the tour within [{u_min}, {u_max}] (the \
+             fitted spring needs more): give the bandwidth (--goal bandwidth=...)"
+        ));
+    }
+    let step = largest_step(config, axis).unwrap_or(0.01);
+    // The largest set-point change of the tour as the axis applies it (ramped where limited).
+    let per_cycle = a
+        .setpoint_rate_max_m_per_s
+        .map_or(f64::INFINITY, |r| r * period_s);
+    let cycles = (0.5 / period_s).ceil() as usize;
+    let reference: Vec<f64> = (0..cycles)
+        .map(|k| ((k + 1) as f64 * per_cycle).min(step))
+        .collect();
+    let fits = |w: f64| -> bool {
+        [Direction::Positive, Direction::Negative].iter().all(|&d| {
+            let Ok((ad, bd)) = model.linear(d).discretise(period_s) else {
+                return false;
+            };
+            let poles = goal_poles(ad.len() - 1, w, goal.damping, goal.fast, period_s);
+            place(&ad, &bd, &poles).is_ok_and(|c| {
+                command_response(&ad, &bd, &c, &reference)
+                    .iter()
+                    .all(|u| u.abs() <= headroom)
+            })
+        })
+    };
+    let w_sample = 0.1 / period_s;
+    let why = format!(
+        "the tour's largest step of {:.2} mm{} keeps the command within [{u_min}, {u_max}] \
+         (headroom {headroom:.3} from holding the tour's positions)",
+        step * 1e3,
+        a.setpoint_rate_max_m_per_s
+            .map_or(String::new(), |r| format!(" ramped at {r} m/s"))
+    );
+    if fits(w_sample) {
+        return Ok((
+            w_sample,
+            format!(
+                "the largest the cycle samples ten times per time constant (w T0 = 0.1); {why}"
+            ),
+        ));
+    }
+    // Down from the sampling's limit in steps of 15 %, then bisect the last step (very low
+    // bandwidths put every pole near 1, where the placement is ill-conditioned).
+    let mut hi = w_sample;
+    let mut lo = None;
+    for _ in 0..40 {
+        let w = hi * 0.85;
+        if fits(w) {
+            lo = Some(w);
+            break;
+        }
+        hi = w;
+    }
+    let Some(mut lo) = lo else {
+        return Err(format!(
+            "no bandwidth down to {hi:.3} rad/s keeps the command within the drive's limits on \
+             the tour: give the bandwidth (--goal bandwidth=...)"
+        ));
+    };
+    for _ in 0..20 {
+        let mid = (lo * hi).sqrt();
+        if fits(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Ok((lo, format!("the largest at which {why}")))
+}
+
 /// Tune axis `options.axis` of the configuration `config_text` (from `config_path`) on the
 /// fitted model. Refuses (with the reason) a model whose design parameters' intervals are
 /// wider than `options.max_spread`, or on whose intervals the design is not stable.
 ///
 /// Without a bandwidth in the goal, the bandwidth is the largest at which
-/// - the set-point changes of the configured tour need at most half the drive's force range:
-///   `m ω² Δ ≤ F/2` for the largest step `Δ`, or `m ω r ≤ F/2` for a tour ramped at `r`;
+/// - the predicted command for the tour's largest set-point change (ramped where the axis
+///   limits its rate), started from the command that holds the axis at any position of the
+///   tour, stays within the controller's output limits: the design keeps to the drive's limits;
 /// - the cycle samples the loop's time constant at least ten times: `ω T_0 ≤ 0.1`.
 pub fn tune(
     fitted: &Fitted,
@@ -213,41 +310,13 @@ pub fn tune(
         model.gain
     );
     let period_s = config.cycle.period_s;
-    let (u_min, u_max) = (a.controller.output_min, a.controller.output_max);
 
     // The goal's bandwidth.
     let goal = options.goal;
     let (bandwidth, bandwidth_reason) = match goal.bandwidth_rad_s {
         Some(w) => (w, "as asked (--goal)".to_string()),
-        None => {
-            let force = 0.5 * model.gain[0].min(model.gain[1]) * (u_max - u_min) / 2.0;
-            let step = largest_step(&config, axis).unwrap_or(0.01);
-            let (w_drive, why) = match a.setpoint_rate_max_m_per_s {
-                Some(r) => (
-                    force / (model.mass * r),
-                    format!(
-                        "half the drive's force range for the tour's ramps of {:.3} m/s",
-                        r
-                    ),
-                ),
-                None => (
-                    (force / (model.mass * step)).sqrt(),
-                    format!(
-                        "half the drive's force range for the tour's largest step of {:.2} mm",
-                        step * 1e3
-                    ),
-                ),
-            };
-            let w_sample = 0.1 / period_s;
-            if w_drive < w_sample {
-                (w_drive, format!("the largest for {why}"))
-            } else {
-                (
-                    w_sample,
-                    format!("the largest the cycle samples ten times per time constant (ω T0 = 0.1); {why} would allow {w_drive:.0} rad/s"),
-                )
-            }
-        }
+        None => drive_limited_bandwidth(&model, &config, axis, goal, period_s)
+            .map_err(|e| anyhow::anyhow!("{origin} with {cfg_name}: {e}"))?,
     };
 
     // The slower direction: the less loop gain at the goal's bandwidth.

@@ -220,7 +220,8 @@ pub struct Analysis {
     pub poles: Vec<Complex<f64>>,
     /// Largest `|z|` of the closed-loop poles: below 1 is stable.
     pub spectral_radius: f64,
-    /// Gain margin (factor); `None` when the phase never crosses -180°.
+    /// Gain margin (factor by which the loop gain may grow), at the phase crossovers where the
+    /// loop gain is below 1; `None` when there is none.
     pub gain_margin: Option<f64>,
     /// Phase margin, degrees; `None` when the loop gain never crosses 1.
     pub phase_margin_deg: Option<f64>,
@@ -301,7 +302,7 @@ pub fn analyse(a: &[f64], b: &[f64], controller: &Controller, period_s: f64) -> 
             if l0.im.signum() != l.im.signum() {
                 let f = l0.im / (l0.im - l.im);
                 let re = l0.re + f * (l.re - l0.re);
-                if re < 0.0 {
+                if (-1.0..0.0).contains(&re) {
                     let gm = -1.0 / re;
                     gain_margin = Some(gain_margin.map_or(gm, |g: f64| g.min(gm)));
                 }
@@ -347,6 +348,35 @@ pub fn analyse(a: &[f64], b: &[f64], controller: &Controller, period_s: f64) -> 
         step: y,
         period_s,
     }
+}
+
+/// The command's response to a set-point change `reference` (one value per period): the
+/// closed loop's `u / r = A Q / (A P + B Q)`.
+pub fn command_response(
+    a: &[f64],
+    b: &[f64],
+    controller: &Controller,
+    reference: &[f64],
+) -> Vec<f64> {
+    let den = controller.denominator();
+    let num = poly_mul(a, &controller.q);
+    let ap = poly_mul(a, &den);
+    let bq = poly_mul(b, &controller.q);
+    let char_poly: Vec<f64> = (0..ap.len().max(bq.len()))
+        .map(|i| ap.get(i).unwrap_or(&0.0) + bq.get(i).unwrap_or(&0.0))
+        .collect();
+    let mut u = vec![0.0; reference.len()];
+    for k in 0..reference.len() {
+        let mut acc = 0.0;
+        for (i, ni) in num.iter().enumerate().take(k + 1) {
+            acc += ni * reference[k - i];
+        }
+        for (i, ci) in char_poly.iter().enumerate().skip(1).take(k) {
+            acc -= ci * u[k - i];
+        }
+        u[k] = acc;
+    }
+    u
 }
 
 /// The closed-loop poles of the design goal in `z`: a dominant pair of natural frequency `w`
@@ -434,5 +464,26 @@ mod tests {
         // Static gain K / c.
         let dc = b.iter().sum::<f64>() / a.iter().sum::<f64>();
         assert!((dc - k / c).abs() < 1e-9 * k / c);
+    }
+}
+
+#[cfg(test)]
+mod command_tests {
+    use super::*;
+
+    #[test]
+    fn the_command_settles_at_the_inverse_static_gain() {
+        let plant = ContinuousPlant::body(1.75, 45.0, 1358.0, 1.63, Some(0.0086));
+        let t0 = 0.0025;
+        let (a, b) = plant.discretise(t0).expect("discretises");
+        for w in [5.0, 20.0, 40.0] {
+            let c = place(&a, &b, &goal_poles(3, w, 1.0, 3.0, t0)).expect("placed");
+            let u = command_response(&a, &b, &c, &vec![1.0; 4000]);
+            let last = *u.last().expect("u");
+            assert!(
+                (last - 1358.0 / 1.63).abs() < 1e-3 * 1358.0 / 1.63,
+                "{w}: {last}"
+            );
+        }
     }
 }
