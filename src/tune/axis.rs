@@ -135,6 +135,9 @@ fn largest_step(config: &Config, axis: usize) -> Option<f64> {
     (largest > 0.0).then_some(largest)
 }
 
+/// Share of the output range kept free at either limit when the bandwidth is chosen.
+pub const DRIVE_RESERVE: f64 = 0.1;
+
 /// The largest bandwidth whose design keeps the command inside the drive's limits on the
 /// configured tour, and at most `0.1 / T0`.
 fn drive_limited_bandwidth(
@@ -147,52 +150,66 @@ fn drive_limited_bandwidth(
     let a = &config.axis[axis];
     let (u_min, u_max) = (a.controller.output_min, a.controller.output_max);
     let k = model.gain[0].min(model.gain[1]);
-    // The command that holds the axis at each position of the tour against its spring.
+    // The command that holds the axis at a position against its spring.
+    let hold = |y: f64| (model.stiffness * y + model.pretension) / k;
     let positions: Vec<f64> = std::iter::once(a.initial_setpoint_m)
         .chain(a.setpoints.iter().map(|s| s.position_m))
         .collect();
-    let headroom = positions
+    if let Some(y) = positions
         .iter()
-        .map(|y| {
-            let hold = (model.stiffness * y + model.pretension) / k;
-            (u_max - hold).min(hold - u_min)
-        })
-        .fold(f64::INFINITY, f64::min);
-    if headroom <= 0.0 {
+        .find(|y| !(u_min..=u_max).contains(&hold(**y)))
+    {
         return Err(format!(
-            "the drive cannot hold every position of the tour within [{u_min}, {u_max}] (the \
-             fitted spring needs more): give the bandwidth (--goal bandwidth=...)"
+            "the drive cannot hold the tour's position {y} m within [{u_min}, {u_max}] (the \
+             fitted spring needs {:.3}): give the bandwidth (--goal bandwidth=...)",
+            hold(*y)
         ));
     }
-    let step = largest_step(config, axis).unwrap_or(0.01);
-    // The largest set-point change of the tour as the axis applies it (ramped where limited).
+    // Each set-point change of the tour as the axis applies it (ramped where limited).
     let per_cycle = a
         .setpoint_rate_max_m_per_s
         .map_or(f64::INFINITY, |r| r * period_s);
     let cycles = (0.5 / period_s).ceil() as usize;
-    let reference: Vec<f64> = (0..cycles)
-        .map(|k| ((k + 1) as f64 * per_cycle).min(step))
+    let changes: Vec<(f64, f64)> = positions
+        .windows(2)
+        .map(|w| (w[0], w[1] - w[0]))
+        .filter(|(_, d)| *d != 0.0)
         .collect();
+    let step = largest_step(config, axis).unwrap_or(0.0);
+    // The predicted command from the hold at the start of each change stays within the limits,
+    // less a reserve for what the linear model does not know (friction, the fit's error).
+    let reserve = DRIVE_RESERVE * (u_max - u_min);
+    let (lo_u, hi_u) = (u_min + reserve, u_max - reserve);
     let fits = |w: f64| -> bool {
-        [Direction::Positive, Direction::Negative].iter().all(|&d| {
+        changes.iter().all(|&(from, delta)| {
+            let d = if delta > 0.0 {
+                Direction::Positive
+            } else {
+                Direction::Negative
+            };
             let Ok((ad, bd)) = model.linear(d).discretise(period_s) else {
                 return false;
             };
             let poles = goal_poles(ad.len() - 1, w, goal.damping, goal.fast, period_s);
+            let reference: Vec<f64> = (0..cycles)
+                .map(|j| ((j + 1) as f64 * per_cycle).min(delta.abs()) * delta.signum())
+                .collect();
             place(&ad, &bd, &poles).is_ok_and(|c| {
                 command_response(&ad, &bd, &c, &reference)
                     .iter()
-                    .all(|u| u.abs() <= headroom)
+                    .all(|u| (lo_u..=hi_u).contains(&(hold(from) + u)))
             })
         })
     };
     let w_sample = 0.1 / period_s;
     let why = format!(
-        "the tour's largest step of {:.2} mm{} keeps the command within [{u_min}, {u_max}] \
-         (headroom {headroom:.3} from holding the tour's positions)",
+        "every set-point change of the tour (the largest {:.2} mm{}) keeps the predicted command \
+         within [{lo_u:.4}, {hi_u:.4}] (the output range less {:.0} % at either end) from the \
+         command that held the position before",
         step * 1e3,
         a.setpoint_rate_max_m_per_s
-            .map_or(String::new(), |r| format!(" ramped at {r} m/s"))
+            .map_or(String::new(), |r| format!(" ramped at {r} m/s")),
+        100.0 * DRIVE_RESERVE
     );
     if fits(w_sample) {
         return Ok((
