@@ -78,6 +78,8 @@ fn settled_error(samples: &[LockStepSample], tour: usize, dt_s: f64) -> f64 {
 }
 
 struct Loop {
+    /// The tuned friction compensation per direction in command units (level / force gain).
+    compensation: [f64; 2],
     before_rms: f64,
     after_rms: f64,
     before_settled: f64,
@@ -132,7 +134,15 @@ fn the_loop(family: &str, reference: &str, plant: &str, tour: &[f64], dt_s: f64)
         "the controller was designed"
     );
     let after = run(&tuned_config, &plant);
+    let fc = tuned_config.axis[0]
+        .friction_compensation
+        .as_ref()
+        .expect("friction compensation");
     let l = Loop {
+        compensation: [
+            fc.coulomb_pos_n / fc.force_gain_n_per_command,
+            fc.coulomb_neg_n / fc.force_gain_n_per_command,
+        ],
         before_rms: rms_error(&before),
         after_rms: rms_error(&after),
         before_settled: settled_error(&before, tour.len(), dt_s),
@@ -148,6 +158,29 @@ fn the_loop(family: &str, reference: &str, plant: &str, tour: &[f64], dt_s: f64)
         l.after_settled * 1e6
     );
     l
+}
+
+/// The tuned compensation in command units against the plant file's Coulomb friction over its
+/// drive gain, within 10 %.
+fn check_compensation(
+    l: &Loop,
+    plant: &str,
+    drive_gain: &dyn Fn(&actuatord::physics::PlantSpec) -> Option<f64>,
+) {
+    let p = actuatord::physics::load_spec(&root().join(plant)).expect("plant");
+    let k = drive_gain(&p).expect("drive gain");
+    for (i, name) in ["coulomb.coulomb_pos_n", "coulomb.coulomb_neg_n"]
+        .iter()
+        .enumerate()
+    {
+        let truth = p.get(name).expect("coulomb") / k;
+        let tuned = l.compensation[i];
+        println!("{name}: tuned {tuned:.4} command units, plant {truth:.4}");
+        assert!(
+            (tuned - truth).abs() < 0.1 * truth,
+            "{name}: {tuned} vs {truth}"
+        );
+    }
 }
 
 #[test]
@@ -167,6 +200,10 @@ fn linear_axis_tuned_from_its_fit_tracks_at_least_twice_as_well() {
         l.before_rms
     );
     assert!(l.after_settled <= 0.5 * l.before_settled);
+    // The friction the compensation holds, in volts, is the plant's: 6 N over 6 N/V.
+    check_compensation(&l, "tests/data/linear_axis_heavy.toml", &|p| {
+        p.get("linear_axis.force_gain_n_per_v")
+    });
     // The report states the goal, the margins per direction and the robustness.
     for needle in ["goal:", "positive", "negative", "robustness over", "from "] {
         assert!(
@@ -209,6 +246,13 @@ fn solenoid_tuned_from_its_fit_settles_closer() {
         l.before_rms
     );
     assert!(l.tune_output.contains("designed on the negative direction"));
+    // The fit cannot split the friction band between the directions next to the pretension:
+    // tune splits it evenly, and the volts it compensates are the plant's (0.6 N over
+    // 0.1 A/V x 13 N/A), although the fit's newtons are in the declared magnet's scale.
+    assert!(l.tune_output.contains("half the friction band"));
+    check_compensation(&l, "tests/data/solenoid_heavy.toml", &|p| {
+        Some(p.get("solenoid.current_gain_a_per_v")? * p.get("solenoid.force_constant_n_per_a")?)
+    });
 }
 
 #[test]
@@ -239,4 +283,100 @@ fn tune_refuses_a_model_whose_intervals_are_too_wide() {
         "{err}"
     );
     assert!(!dir.path().join("tuned.toml").exists());
+}
+
+/// The `actuator ...` lines of the README's code block under `## Tuning from the fitted model`.
+fn readme_walkthrough() -> (Vec<Vec<String>>, String) {
+    let readme = std::fs::read_to_string(root().join("README.md")).expect("README.md");
+    let section = readme
+        .split("\n## Tuning from the fitted model")
+        .nth(1)
+        .and_then(|s| s.split("\n## ").next())
+        .expect("a tuning section")
+        .to_string();
+    let block = section
+        .split("```sh\n")
+        .nth(1)
+        .and_then(|b| b.split("```").next())
+        .expect("a sh code block");
+    let lines = block
+        .lines()
+        .filter(|l| l.starts_with("actuator "))
+        .map(|l| l.split_whitespace().skip(1).map(String::from).collect())
+        .collect();
+    (lines, section)
+}
+
+/// The RMS following error `sim --record` reports, in µm.
+fn reported_rms(stderr: &str) -> f64 {
+    stderr
+        .split("RMS following error ")
+        .nth(1)
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no tracking figure in: {stderr}"))
+}
+
+/// The README's figure before `word` (e.g. "µm with the reference").
+fn readme_figure(section: &str, after: &str) -> f64 {
+    section
+        .split(after)
+        .nth(1)
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|v| v.trim_end_matches([',', '.']).parse().ok())
+        .unwrap_or_else(|| panic!("no figure after {after:?} in the README"))
+}
+
+#[test]
+fn the_readme_tuning_walkthrough_runs_and_its_figures_hold() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for sub in ["config", "tests/data"] {
+        let to = dir.path().join(sub);
+        std::fs::create_dir_all(&to).expect("mkdir");
+        for entry in std::fs::read_dir(root().join(sub)).expect("read_dir") {
+            let entry = entry.expect("entry");
+            if entry.file_type().expect("type").is_file() {
+                std::fs::copy(entry.path(), to.join(entry.file_name())).expect("copy");
+            }
+        }
+    }
+    let (steps, section) = readme_walkthrough();
+    assert_eq!(steps.len(), 4, "record, fit, tune, run: {steps:?}");
+    let mut figures = Vec::new();
+    for args in &steps {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_actuator"))
+            .current_dir(dir.path())
+            .args(args)
+            .output()
+            .expect("actuator runs");
+        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+        assert!(
+            out.status.success(),
+            "actuator {}: {stderr}",
+            args.join(" ")
+        );
+        if args[0] == "sim" {
+            figures.push(reported_rms(&stderr));
+        }
+    }
+    let (before, after) = (figures[0], figures[1]);
+    println!("README walkthrough: {before} µm -> {after} µm");
+    assert!(after <= 0.5 * before, "{after} against {before}");
+    Config::load(&dir.path().join("tuned.toml")).expect("tuned.toml passes validation");
+    // The figures the README states are the ones the commands give.
+    for (stated, measured) in [
+        (
+            readme_figure(
+                &section,
+                "tracking, the RMS following error from the first set-point\nchange on: ",
+            ),
+            before,
+        ),
+        (readme_figure(&section, "reference configuration, "), after),
+    ] {
+        assert!(
+            (stated - measured).abs() <= 0.02 * measured,
+            "README says {stated} µm, the run gives {measured} µm"
+        );
+    }
 }

@@ -457,20 +457,31 @@ pub fn tune(
         _ => 1.0,
     };
     let k_mean = 0.5 * (model.gain[0] + model.gain[1]) * scale;
-    match (&a.friction_compensation, model.coulomb) {
+    // A Coulomb level the fit kept (collinear with the pretension or an offset on these data)
+    // is not determined; the band F_C+ + F_C- is: split it evenly.
+    let (pos_n, neg_n) = ("coulomb.coulomb_pos_n", "coulomb.coulomb_neg_n");
+    let split = fitted.intervals.contains_key(pos_n) != fitted.intervals.contains_key(neg_n);
+    let coulomb = model
+        .coulomb
+        .map(|c| if split { [0.5 * (c[0] + c[1]); 2] } else { c });
+    match (&a.friction_compensation, coulomb) {
         (Some(fc), Some(c)) => {
-            ed.set_f64(
-                "friction_compensation",
-                "coulomb_pos_n",
-                c[0] * scale,
-                format!("coulomb.coulomb_pos_n of {origin}{}", scaled(family, scale)),
-            );
-            ed.set_f64(
-                "friction_compensation",
-                "coulomb_neg_n",
-                c[1] * scale,
-                format!("coulomb.coulomb_neg_n of {origin}{}", scaled(family, scale)),
-            );
+            for (key, name, v) in [
+                ("coulomb_pos_n", pos_n, c[0]),
+                ("coulomb_neg_n", neg_n, c[1]),
+            ] {
+                let from = if split {
+                    format!(
+                        "half the friction band coulomb.coulomb_pos_n + coulomb.coulomb_neg_n of \
+                         {origin} (the fit kept one level: the split between the directions is \
+                         not determined){}",
+                        scaled(family, scale)
+                    )
+                } else {
+                    format!("{name} of {origin}{}", scaled(family, scale))
+                };
+                ed.set_f64("friction_compensation", key, v * scale, from);
+            }
             match family {
                 Family::Solenoid => ed.set_f64(
                     "friction_compensation",
