@@ -87,7 +87,14 @@ struct Loop {
     tune_output: String,
 }
 
-fn the_loop(family: &str, reference: &str, plant: &str, tour: &[f64], dt_s: f64) -> Loop {
+fn the_loop(
+    family: &str,
+    reference: &str,
+    plant: &str,
+    tour: &[f64],
+    dt_s: f64,
+    extra: &[&str],
+) -> Loop {
     let dir = tempfile::tempdir().expect("tempdir");
     let reference = with_tour(dir.path(), &root().join(reference), tour, dt_s);
     let plant = root().join(plant);
@@ -114,18 +121,17 @@ fn the_loop(family: &str, reference: &str, plant: &str, tour: &[f64], dt_s: f64)
             &p(&fitted),
         ],
     );
-    let tune_output = lab_common::actuator(
-        dir.path(),
-        &[
-            "tune",
-            "--model",
-            &p(&fitted),
-            "--config",
-            &p(&reference),
-            "--out",
-            &p(&tuned),
-        ],
-    );
+    let mut args = vec![
+        "tune".to_string(),
+        "--model".into(),
+        p(&fitted),
+        "--config".into(),
+        p(&reference),
+        "--out".into(),
+        p(&tuned),
+    ];
+    args.extend(extra.iter().map(|a| a.replace("DIR", &p(dir.path()))));
+    let tune_output = lab_common::actuator(dir.path(), &args);
     println!("{tune_output}");
     // The tuned file is a configuration the daemon accepts.
     let tuned_config = Config::load(&tuned).expect("the tuned configuration passes validation");
@@ -133,6 +139,17 @@ fn the_loop(family: &str, reference: &str, plant: &str, tour: &[f64], dt_s: f64)
         tuned_config.axis[0].controller.q_per_m, config.axis[0].controller.q_per_m,
         "the controller was designed"
     );
+    if let Some(pe) = &tuned_config.axis[0].parameter_estimation {
+        if pe.fault_table.is_some() {
+            // The table derived for the fitted plant loads, and names the paper's faults.
+            let table = pe.load_fault_table().expect("the derived table loads");
+            println!("{table:?}");
+            assert!(
+                format!("{table:?}").contains("SpringPretension"),
+                "{table:?}"
+            );
+        }
+    }
     let after = run(&tuned_config, &plant);
     let fc = tuned_config.axis[0]
         .friction_compensation
@@ -192,6 +209,7 @@ fn linear_axis_tuned_from_its_fit_tracks_at_least_twice_as_well() {
         "tests/data/linear_axis_heavy.toml",
         &tour,
         0.5,
+        &[],
     );
     assert!(
         l.after_rms <= 0.5 * l.before_rms,
@@ -229,6 +247,7 @@ fn solenoid_tuned_from_its_fit_settles_closer() {
         "tests/data/solenoid_heavy.toml",
         &tour,
         0.4,
+        &["--fault-table", "DIR/fault_symptoms.toml"],
     );
     // The transients of the designed loop are slower than the reference's (the goal keeps the
     // command inside 0..24 V), but what is left once settled falls by far more than half, and
@@ -250,6 +269,9 @@ fn solenoid_tuned_from_its_fit_settles_closer() {
     // tune splits it evenly, and the volts it compensates are the plant's (0.6 N over
     // 0.1 A/V x 13 N/A), although the fit's newtons are in the declared magnet's scale.
     assert!(l.tune_output.contains("half the friction band"));
+    assert!(l
+        .tune_output
+        .contains("fault-symptom table for the fitted plant"));
     check_compensation(&l, "tests/data/solenoid_heavy.toml", &|p| {
         Some(p.get("solenoid.current_gain_a_per_v")? * p.get("solenoid.force_constant_n_per_a")?)
     });

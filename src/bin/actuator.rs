@@ -126,6 +126,10 @@ enum Command {
         /// The axis to tune (default: the first).
         #[arg(long)]
         axis: Option<String>,
+        /// Also derive the fault-symptom table for the fitted plant (a solenoid) and write it
+        /// here, beside --out; the tuned configuration names it. Takes a few minutes.
+        #[arg(long)]
+        fault_table: Option<PathBuf>,
     },
     /// The model lab: compare, diagnose, fit, report.
     #[command(flatten)]
@@ -475,6 +479,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             goal,
             max_spread,
             axis,
+            fault_table,
         } => {
             let fitted = actuatord::tune::Fitted::load(&model)?;
             let text = std::fs::read_to_string(&config)
@@ -484,7 +489,29 @@ fn run(args: Args) -> anyhow::Result<()> {
                 max_spread,
                 axis,
             };
-            let tuning = actuatord::tune::tune(&fitted, &text, &config, &options)?;
+            let mut tuning = actuatord::tune::tune(&fitted, &text, &config, &options)?;
+            if let Some(table) = &fault_table {
+                // The configuration names the table relative to its own folder.
+                let key = table
+                    .file_name()
+                    .map(|n| n.to_string_lossy().to_string())
+                    .ok_or_else(|| anyhow::anyhow!("--fault-table needs a file name"))?;
+                let beside = out.parent().unwrap_or(Path::new(".")).join(&key);
+                anyhow::ensure!(
+                    beside == *table || table.parent() == out.parent(),
+                    "--fault-table {} must be in the folder of --out {}",
+                    table.display(),
+                    out.display()
+                );
+                let summary = actuatord::tune::regenerate_fault_table(
+                    &mut tuning,
+                    &fitted,
+                    &out,
+                    table,
+                    &key,
+                )?;
+                print!("fault-symptom table for the fitted plant:\n{summary}");
+            }
             print!("{tuning}");
             std::fs::write(&out, &tuning.text)
                 .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", out.display()))?;

@@ -921,3 +921,52 @@ mod tests {
             .contains("damping"));
     }
 }
+
+/// Derive the fault-symptom table for the tuned axis on the fitted plant (the daemon of the
+/// tuned configuration and the fitted model in lock-step, healthy and with each fault, as
+/// `actuator bench fault-table` does for the reference solenoid), write it to `table`, and name
+/// it in the tuned configuration (`table_key`: the path as the configuration gives it, relative
+/// to the configuration's folder). Returns the derivation's summary.
+pub fn regenerate_fault_table(
+    tuning: &mut Tuning,
+    fitted: &Fitted,
+    config_path: &Path,
+    table: &Path,
+    table_key: &str,
+) -> anyhow::Result<String> {
+    use crate::bench::fault_table::{derive_with, FaultTableOptions, Simulation};
+    anyhow::ensure!(
+        tuning.family == Family::Solenoid,
+        "the fault-symptom table is the solenoid's parameter diagnosis; {} has none",
+        tuning.family
+    );
+    let config = Config::from_toml(&tuning.text, config_path)?;
+    let options = FaultTableOptions::default();
+    let sim = Simulation::with(&options, config, fitted.model.spec.clone())?;
+    let derived = derive_with(&sim)?;
+    let header = format!(
+        "Fault-symptom table derived by `actuator tune --fault-table` for the plant fitted in\n\
+         {}: the tuned daemon and the fitted model in lock-step, healthy and with each fault\n\
+         (see `actuator bench fault-table` for how).",
+        fitted.origin
+    );
+    std::fs::write(table, derived.file.to_toml(&header))
+        .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", table.display()))?;
+    let mut doc: toml_edit::DocumentMut = tuning.text.parse()?;
+    let mut ed = Editor::new(std::mem::take(&mut doc), 0);
+    ed.set(
+        "parameter_estimation",
+        "fault_table",
+        toml_edit::Value::from(table_key),
+        "derived for the fitted plant with the tuned configuration",
+    );
+    tuning.text = ed.doc.to_string();
+    tuning.changes.extend(ed.changes);
+    tuning
+        .kept
+        .retain(|k| k.key != "axis.parameter_estimation.fault_table");
+    Config::from_toml(&tuning.text, config_path).map_err(|e| {
+        anyhow::anyhow!("the tuned configuration does not pass the daemon's validation: {e}")
+    })?;
+    Ok(derived.summary())
+}
