@@ -905,23 +905,6 @@ impl fmt::Display for Tuning {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn goal_parses_and_names_what_is_wrong() {
-        let g: Goal = "bandwidth=30,damping=0.8".parse().expect("goal");
-        assert_eq!(g.bandwidth_rad_s, Some(30.0));
-        assert_eq!(g.damping, 0.8);
-        assert!("speed=3".parse::<Goal>().unwrap_err().contains("speed"));
-        assert!("damping=-1"
-            .parse::<Goal>()
-            .unwrap_err()
-            .contains("damping"));
-    }
-}
-
 /// Derive the fault-symptom table for the tuned axis on the fitted plant (the daemon of the
 /// tuned configuration and the fitted model in lock-step, healthy and with each fault, as
 /// `actuator bench fault-table` does for the reference solenoid), write it to `table`, and name
@@ -969,4 +952,21 @@ pub fn regenerate_fault_table(
         anyhow::anyhow!("the tuned configuration does not pass the daemon's validation: {e}")
     })?;
     Ok(derived.summary())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn goal_parses_and_names_what_is_wrong() {
+        let g: Goal = "bandwidth=30,damping=0.8".parse().expect("goal");
+        assert_eq!(g.bandwidth_rad_s, Some(30.0));
+        assert_eq!(g.damping, 0.8);
+        assert!("speed=3".parse::<Goal>().unwrap_err().contains("speed"));
+        assert!("damping=-1"
+            .parse::<Goal>()
+            .unwrap_err()
+            .contains("damping"));
+    }
 }
