@@ -87,17 +87,24 @@ impl Editor {
         };
         let before = render(s.get(key));
         let mut value = value;
-        value.decor_mut().set_suffix("  # tuned");
+        value.decor_mut().clear();
         let after = value.to_string().trim().to_string();
-        s.insert(key, Item::Value(value));
-        if after.trim_end_matches("# tuned").trim() != before {
-            self.changes.push(Change {
+        // A value the model confirms stays as written, comment and all.
+        if after == before {
+            self.kept.push(Kept {
                 key: format!("axis.{section}.{key}"),
-                before,
-                after: after.trim_end_matches("# tuned").trim().to_string(),
-                origin: origin.into(),
+                reason: format!("the same as from {}", origin.into()),
             });
+            return;
         }
+        value.decor_mut().set_suffix("  # tuned");
+        s.insert(key, Item::Value(value));
+        self.changes.push(Change {
+            key: format!("axis.{section}.{key}"),
+            before,
+            after,
+            origin: origin.into(),
+        });
     }
 
     pub fn set_f64(&mut self, section: &str, key: &str, v: f64, origin: impl Into<String>) {
