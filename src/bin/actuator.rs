@@ -58,7 +58,8 @@ enum Command {
         /// Stop by itself after this many seconds.
         #[arg(long)]
         duration_s: Option<f64>,
-        /// Offline: write the closed-loop data set to this CSV file.
+        /// Offline: write the closed-loop data set to this CSV file (and print the run's RMS
+        /// following error from the first set-point change on).
         #[arg(long)]
         record: Option<PathBuf>,
         /// Offline: simulated seconds.
