@@ -24,6 +24,7 @@
 //! - [`lockstep`]: the daemon's node and simulated nodes stepped together, without a clock.
 //! - [`demo`]: the self-contained demonstration.
 //! - [`bench`]: the benchmarks and their reports.
+//! - [`tune`]: from a fitted model to an axis configuration (uses the lab and the fault table).
 
 pub mod bench;
 pub mod bus;
@@ -43,3 +44,4 @@ pub mod physics;
 pub mod recording;
 pub mod simnode;
 pub mod supervise;
+pub mod tune;

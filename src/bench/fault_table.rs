@@ -139,9 +139,10 @@ impl Run {
     }
 }
 
-/// The daemon configuration of the runs and its estimator's settings.
+/// The daemon configuration of the runs, its estimator's settings and the plant.
 pub struct Simulation {
     options: FaultTableOptions,
+    plant: crate::physics::PlantSpec,
     config: Config,
     estimator: crate::supervise::ParameterEstimatorConfig,
     window_updates: u64,
@@ -152,9 +153,21 @@ pub struct Simulation {
 impl Simulation {
     /// The daemon of `config/solenoid.toml` set up for the runs.
     pub fn new(options: &FaultTableOptions) -> Result<Self, BenchError> {
+        let plant =
+            crate::physics::PlantSpec::from_toml(SOLENOID_PLANT, "config/plants/solenoid.toml")?;
+        let config = Config::from_toml(SOLENOID_CONFIG, Path::new("config/solenoid.toml"))
+            .map_err(|e| BenchError::Failed(e.to_string()))?;
+        Self::with(options, config, plant)
+    }
+
+    /// Another solenoid axis' configuration against another solenoid plant (a tuned
+    /// configuration and the model it was tuned for).
+    pub fn with(
+        options: &FaultTableOptions,
+        mut config: Config,
+        plant: crate::physics::PlantSpec,
+    ) -> Result<Self, BenchError> {
         let failed = |e: &dyn std::fmt::Display| BenchError::Failed(e.to_string());
-        let mut config = Config::from_toml(SOLENOID_CONFIG, Path::new("config/solenoid.toml"))
-            .map_err(|e| failed(&e))?;
         let period_s = config.cycle.period_s;
         let axis = config
             .axis
@@ -185,6 +198,7 @@ impl Simulation {
             .collect();
         Ok(Simulation {
             options: *options,
+            plant,
             config,
             estimator,
             window_updates: section.window_updates,
@@ -207,10 +221,9 @@ impl Simulation {
     /// until `options.windows` windows are estimated or `max_run_s` has passed.
     pub fn run(&self, fault: Option<FaultKind>, seed: u64) -> Result<Run, BenchError> {
         let options = &self.options;
-        let mut spec =
-            crate::physics::PlantSpec::from_toml(SOLENOID_PLANT, "config/plants/solenoid.toml")?;
+        let mut spec = self.plant.clone();
         spec.seed = seed;
-        let plant = spec.build_named("config/plants/solenoid.toml")?;
+        let plant = spec.build()?;
         let schedule = fault
             .map(|kind| ScheduledFault {
                 at_s: 0.0,
@@ -296,9 +309,12 @@ fn signs(s: &[Symptom; PHYSICAL_PARAMS]) -> Vec<String> {
 pub const TABLE_MARGIN: f64 = 1.5;
 
 pub fn derive(options: &FaultTableOptions) -> Result<Derived, BenchError> {
-    let sim = Simulation::new(options)?;
-    let seed =
-        crate::physics::PlantSpec::from_toml(SOLENOID_PLANT, "config/plants/solenoid.toml")?.seed;
+    derive_with(&Simulation::new(options)?)
+}
+
+/// [`derive`] for the configuration and plant of `sim`.
+pub fn derive_with(sim: &Simulation) -> Result<Derived, BenchError> {
+    let seed = sim.plant.seed;
     let healthy = sim.run(None, seed)?;
     if healthy.windows.len() < 2 {
         return Err(BenchError::Failed(format!(

@@ -65,7 +65,8 @@ enum Command {
         /// Stop by itself after this many seconds.
         #[arg(long)]
         duration_s: Option<f64>,
-        /// Offline: write the closed-loop data set to this CSV file.
+        /// Offline: write the closed-loop data set to this CSV file (and print the run's RMS
+        /// following error from the first set-point change on).
         #[arg(long)]
         record: Option<PathBuf>,
         /// Offline: simulated seconds.
@@ -109,6 +110,34 @@ enum Command {
     Design {
         #[command(subcommand)]
         what: DesignCommand,
+    },
+    /// From a fitted model (`actuator fit --out`) and an axis configuration, the configuration
+    /// for the identified plant: controller designed per direction, margins, robustness over
+    /// the fitted intervals, friction compensation, observer, estimation, supply schedule.
+    Tune {
+        /// The fitted model file, with its 95 % intervals.
+        #[arg(long)]
+        model: PathBuf,
+        /// The axis configuration to start from.
+        #[arg(long)]
+        config: PathBuf,
+        /// Where the tuned configuration goes.
+        #[arg(long)]
+        out: PathBuf,
+        /// Design goal, e.g. bandwidth=30,damping=0.9,fast=3 (rad/s; default: the largest
+        /// bandwidth the drive and the sampling allow, damping 1).
+        #[arg(long, default_value = "")]
+        goal: actuatord::tune::Goal,
+        /// Largest half-width of a design parameter's 95 % interval, relative to its value.
+        #[arg(long, default_value_t = 0.25)]
+        max_spread: f64,
+        /// The axis to tune (default: the first).
+        #[arg(long)]
+        axis: Option<String>,
+        /// Also derive the fault-symptom table for the fitted plant (a solenoid) and write it
+        /// here, beside --out; the tuned configuration names it. Takes a few minutes.
+        #[arg(long)]
+        fault_table: Option<PathBuf>,
     },
     /// The model lab: compare, diagnose, fit, report.
     #[command(flatten)]
@@ -451,6 +480,52 @@ fn run(args: Args) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Lab(cmd) => lab::run(cmd),
+        Command::Tune {
+            model,
+            config,
+            out,
+            goal,
+            max_spread,
+            axis,
+            fault_table,
+        } => {
+            let fitted = actuatord::tune::Fitted::load(&model)?;
+            let text = std::fs::read_to_string(&config)
+                .map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", config.display()))?;
+            let options = actuatord::tune::TuneOptions {
+                goal,
+                max_spread,
+                axis,
+            };
+            let mut tuning = actuatord::tune::tune(&fitted, &text, &config, &options)?;
+            if let Some(table) = &fault_table {
+                // The configuration names the table relative to its own folder.
+                let key = table
+                    .file_name()
+                    .map(|n| n.to_string_lossy().to_string())
+                    .ok_or_else(|| anyhow::anyhow!("--fault-table needs a file name"))?;
+                let beside = out.parent().unwrap_or(Path::new(".")).join(&key);
+                anyhow::ensure!(
+                    beside == *table || table.parent() == out.parent(),
+                    "--fault-table {} must be in the folder of --out {}",
+                    table.display(),
+                    out.display()
+                );
+                let summary = actuatord::tune::regenerate_fault_table(
+                    &mut tuning,
+                    &fitted,
+                    &out,
+                    table,
+                    &key,
+                )?;
+                print!("fault-symptom table for the fitted plant:\n{summary}");
+            }
+            print!("{tuning}");
+            std::fs::write(&out, &tuning.text)
+                .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", out.display()))?;
+            println!("wrote {}", out.display());
+            Ok(())
+        }
         Command::Sdo {
             iface,
             node,
@@ -732,12 +807,27 @@ fn sim_offline(
         .and_then(|()| std::io::Write::flush(&mut out))
         .map_err(|e| anyhow::anyhow!("{}: {e}", csv.display()))?;
     let c = rig.controller().counters();
+    // The tracking of the run: the following error against the reference the axis applied
+    // (after its rate limit), from the first set-point change on.
+    let start = config
+        .axis
+        .first()
+        .and_then(|a| a.setpoints.first())
+        .map_or(0.0, |s| s.at_s);
+    let errors: Vec<f64> = samples
+        .iter()
+        .filter(|s| s.record.t_s >= start)
+        .map(|s| s.record.following_error)
+        .collect();
+    let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt();
     eprintln!(
-        "actuator sim: {} samples ({seconds} s at {} ms) written to {}; faults raised: {}",
+        "actuator sim: {} samples ({seconds} s at {} ms) written to {}; faults raised: {}; \
+         tracking from {start} s: RMS following error {:.1} µm",
         samples.len(),
         config.cycle.period_s * 1e3,
         csv.display(),
-        c.faults_raised
+        c.faults_raised,
+        rms * 1e6
     );
     Ok(())
 }

@@ -1,0 +1,972 @@
+//! The tuning of one axis: the controller designed on the identified model (the slower
+//! direction, the other checked), its robustness over the fitted intervals, the friction
+//! compensation and its adaptation, the observer and the parameter estimation, the supply
+//! schedule; each changed value with its origin, each value kept with the reason.
+
+use std::fmt;
+use std::path::Path;
+
+use super::design::{analyse, command_response, goal_poles, place, Analysis, Controller};
+use super::edit::{round_sig, Change, Editor, Kept};
+use super::fitted::Fitted;
+use super::plant::{corners, design_parameters, AxisModel, Direction};
+use crate::daemon::config::{CommandKind, Config};
+use crate::physics::Family;
+
+/// The design goal: a dominant closed-loop pair of natural frequency `bandwidth` and damping
+/// `damping`, the other poles `fast` times faster.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Goal {
+    /// rad/s; `None`: the largest the drive and the sampling allow (see [`tune`]).
+    pub bandwidth_rad_s: Option<f64>,
+    pub damping: f64,
+    pub fast: f64,
+}
+
+impl Default for Goal {
+    fn default() -> Self {
+        Goal {
+            bandwidth_rad_s: None,
+            damping: 1.0,
+            fast: 3.0,
+        }
+    }
+}
+
+impl std::str::FromStr for Goal {
+    type Err = String;
+
+    /// `bandwidth=30,damping=0.9,fast=3` (any of them; rad/s for the bandwidth).
+    fn from_str(s: &str) -> Result<Self, String> {
+        let mut g = Goal::default();
+        for part in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+            let (k, v) = part
+                .split_once('=')
+                .ok_or_else(|| format!("--goal: expected key=value, got {part:?}"))?;
+            let v: f64 = v
+                .trim()
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite() && *v > 0.0)
+                .ok_or_else(|| format!("--goal: {k} must be a positive number, got {v:?}"))?;
+            match k.trim() {
+                "bandwidth" | "bandwidth_rad_s" => g.bandwidth_rad_s = Some(v),
+                "damping" => g.damping = v,
+                "fast" => g.fast = v,
+                other => {
+                    return Err(format!(
+                        "--goal: unknown key {other:?}, expected bandwidth, damping or fast"
+                    ))
+                }
+            }
+        }
+        Ok(g)
+    }
+}
+
+/// What `tune` is asked.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TuneOptions {
+    pub goal: Goal,
+    /// Largest half-width of a design parameter's 95 % interval, relative to its value.
+    pub max_spread: f64,
+    /// Axis by name; the first one when `None`.
+    pub axis: Option<String>,
+}
+
+impl Default for TuneOptions {
+    fn default() -> Self {
+        TuneOptions {
+            goal: Goal::default(),
+            max_spread: 0.25,
+            axis: None,
+        }
+    }
+}
+
+/// The design on one direction's model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DirectionDesign {
+    pub direction: Direction,
+    pub analysis: Analysis,
+}
+
+/// The design over every corner of the fitted intervals.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Robustness {
+    /// Corners checked (both directions each).
+    pub corners: usize,
+    pub parameters: Vec<String>,
+    pub spectral_radius_max: f64,
+    pub gain_margin_min: Option<f64>,
+    pub phase_margin_min_deg: Option<f64>,
+    pub overshoot_max: f64,
+}
+
+/// The outcome: the tuned file's text and everything behind it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tuning {
+    pub text: String,
+    pub family: Family,
+    pub model: AxisModel,
+    pub period_s: f64,
+    pub goal: Goal,
+    pub bandwidth_rad_s: f64,
+    /// Why this bandwidth (the goal, or the limit that set it).
+    pub bandwidth_reason: String,
+    pub design_direction: Direction,
+    pub controller: Controller,
+    pub directions: Vec<DirectionDesign>,
+    pub robustness: Robustness,
+    /// Start values of the friction compensation per direction, in command units.
+    pub friction_start: Option<[f64; 2]>,
+    pub changes: Vec<Change>,
+    pub kept: Vec<Kept>,
+}
+
+fn largest_step(config: &Config, axis: usize) -> Option<f64> {
+    let a = &config.axis[axis];
+    let mut last = a.initial_setpoint_m;
+    let mut largest: f64 = 0.0;
+    for s in &a.setpoints {
+        largest = largest.max((s.position_m - last).abs());
+        last = s.position_m;
+    }
+    (largest > 0.0).then_some(largest)
+}
+
+/// Share of the output range kept free at either limit when the bandwidth is chosen.
+pub const DRIVE_RESERVE: f64 = 0.1;
+
+/// The largest bandwidth whose design keeps the command inside the drive's limits on the
+/// configured tour, and at most `0.1 / T0`.
+fn drive_limited_bandwidth(
+    model: &AxisModel,
+    config: &Config,
+    axis: usize,
+    goal: Goal,
+    period_s: f64,
+) -> Result<(f64, String), String> {
+    let a = &config.axis[axis];
+    let (u_min, u_max) = (a.controller.output_min, a.controller.output_max);
+    let k = model.gain[0].min(model.gain[1]);
+    // The command that holds the axis at a position against its spring.
+    let hold = |y: f64| (model.stiffness * y + model.pretension) / k;
+    let positions: Vec<f64> = std::iter::once(a.initial_setpoint_m)
+        .chain(a.setpoints.iter().map(|s| s.position_m))
+        .collect();
+    if let Some(y) = positions
+        .iter()
+        .find(|y| !(u_min..=u_max).contains(&hold(**y)))
+    {
+        return Err(format!(
+            "the drive cannot hold the tour's position {y} m within [{u_min}, {u_max}] (the \
+             fitted spring needs {:.3}): give the bandwidth (--goal bandwidth=...)",
+            hold(*y)
+        ));
+    }
+    // Each set-point change of the tour as the axis applies it (ramped where limited).
+    let per_cycle = a
+        .setpoint_rate_max_m_per_s
+        .map_or(f64::INFINITY, |r| r * period_s);
+    let cycles = (0.5 / period_s).ceil() as usize;
+    let changes: Vec<(f64, f64)> = positions
+        .windows(2)
+        .map(|w| (w[0], w[1] - w[0]))
+        .filter(|(_, d)| *d != 0.0)
+        .collect();
+    let step = largest_step(config, axis).unwrap_or(0.0);
+    // The predicted command from the hold at the start of each change stays within the limits,
+    // less a reserve for what the linear model does not know (friction, the fit's error).
+    let reserve = DRIVE_RESERVE * (u_max - u_min);
+    let (lo_u, hi_u) = (u_min + reserve, u_max - reserve);
+    let fits = |w: f64| -> bool {
+        changes.iter().all(|&(from, delta)| {
+            let d = if delta > 0.0 {
+                Direction::Positive
+            } else {
+                Direction::Negative
+            };
+            let Ok((ad, bd)) = model.linear(d).discretise(period_s) else {
+                return false;
+            };
+            let poles = goal_poles(ad.len() - 1, w, goal.damping, goal.fast, period_s);
+            let reference: Vec<f64> = (0..cycles)
+                .map(|j| ((j + 1) as f64 * per_cycle).min(delta.abs()) * delta.signum())
+                .collect();
+            place(&ad, &bd, &poles).is_ok_and(|c| {
+                command_response(&ad, &bd, &c, &reference)
+                    .iter()
+                    .all(|u| (lo_u..=hi_u).contains(&(hold(from) + u)))
+            })
+        })
+    };
+    let w_sample = 0.1 / period_s;
+    let why = format!(
+        "every set-point change of the tour (the largest {:.2} mm{}) keeps the predicted command \
+         within [{lo_u:.4}, {hi_u:.4}] (the output range less {:.0} % at either end) from the \
+         command that held the position before",
+        step * 1e3,
+        a.setpoint_rate_max_m_per_s
+            .map_or(String::new(), |r| format!(" ramped at {r} m/s")),
+        100.0 * DRIVE_RESERVE
+    );
+    if fits(w_sample) {
+        return Ok((
+            w_sample,
+            format!(
+                "the largest the cycle samples ten times per time constant (w T0 = 0.1); {why}"
+            ),
+        ));
+    }
+    // Down from the sampling's limit in steps of 15 %, then bisect the last step (very low
+    // bandwidths put every pole near 1, where the placement is ill-conditioned).
+    let mut hi = w_sample;
+    let mut lo = None;
+    for _ in 0..40 {
+        let w = hi * 0.85;
+        if fits(w) {
+            lo = Some(w);
+            break;
+        }
+        hi = w;
+    }
+    let Some(mut lo) = lo else {
+        return Err(format!(
+            "no bandwidth down to {hi:.3} rad/s keeps the command within the drive's limits on \
+             the tour: give the bandwidth (--goal bandwidth=...)"
+        ));
+    };
+    for _ in 0..20 {
+        let mid = (lo * hi).sqrt();
+        if fits(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Ok((lo, format!("the largest at which {why}")))
+}
+
+/// Tune axis `options.axis` of the configuration `config_text` (from `config_path`) on the
+/// fitted model. Refuses (with the reason) a model whose design parameters' intervals are
+/// wider than `options.max_spread`, or on whose intervals the design is not stable.
+///
+/// Without a bandwidth in the goal, the bandwidth is the largest at which
+/// - the predicted command for the tour's largest set-point change (ramped where the axis
+///   limits its rate), started from the command that holds the axis at any position of the
+///   tour, stays within the controller's output limits: the design keeps to the drive's limits;
+/// - the cycle samples the loop's time constant at least ten times: `ω T_0 ≤ 0.1`.
+pub fn tune(
+    fitted: &Fitted,
+    config_text: &str,
+    config_path: &Path,
+    options: &TuneOptions,
+) -> anyhow::Result<Tuning> {
+    let origin = &fitted.origin;
+    let cfg_name = config_path.display().to_string();
+    let config = Config::from_toml(config_text, config_path)?;
+    let axis = match &options.axis {
+        None => 0,
+        Some(name) => config
+            .axis
+            .iter()
+            .position(|a| &a.name == name)
+            .ok_or_else(|| anyhow::anyhow!("{cfg_name}: no [[axis]] named {name:?}"))?,
+    };
+    let a = config
+        .axis
+        .get(axis)
+        .ok_or_else(|| anyhow::anyhow!("{cfg_name}: no [[axis]]"))?;
+    let family = fitted.model.spec.family;
+    match family {
+        Family::Solenoid | Family::LinearAxis => {}
+        Family::MotorGear => anyhow::bail!(
+            "{origin}: a motor_gear model is designed by `actuator design robust --plant PLANT` \
+             (H-infinity on the fitted plant's envelope); write the fitted values into a plant \
+             file without its [lab] table and run that"
+        ),
+        Family::Pneumatic => anyhow::bail!(
+            "{origin}: tune does not design the pneumatic drive yet; its drive gains per \
+             direction go into [axis.schedule] drive_gain_down_m_per_s / drive_gain_up_m_per_s"
+        ),
+    }
+    anyhow::ensure!(
+        a.command == CommandKind::Voltage,
+        "{cfg_name}: axis {:?} is commanded by {:?}; a {family} model is designed for a voltage command",
+        a.name,
+        a.command
+    );
+    anyhow::ensure!(
+        a.controller.state_space_file.is_none(),
+        "{cfg_name}: axis {:?} runs a state-space controller from a file; tune writes the transfer \
+         function of [axis.controller] and would leave it unused",
+        a.name
+    );
+    // Intervals too wide to design from.
+    for name in design_parameters(family) {
+        if let Some(spread) = fitted.relative_spread(name) {
+            if spread > options.max_spread {
+                let (lo, hi) = fitted.intervals[*name];
+                anyhow::bail!(
+                    "{origin}: {name} = {:.4e} with the 95 % interval [{lo:.4e}, {hi:.4e}], ±{:.0} % \
+                     of its value: too wide to design from (at most ±{:.0} %). Record more motion \
+                     (set-point steps over the stroke, both directions) and fit again",
+                    fitted.get(name).unwrap_or(f64::NAN),
+                    100.0 * spread,
+                    100.0 * options.max_spread
+                );
+            }
+        }
+    }
+    let model = AxisModel::from_fitted(fitted).map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
+    anyhow::ensure!(
+        model.mass > 0.0 && model.gain.iter().all(|g| *g > 0.0),
+        "{origin}: mass {} and drive gain {:?} must be positive to design from",
+        model.mass,
+        model.gain
+    );
+    let period_s = config.cycle.period_s;
+
+    // The goal's bandwidth.
+    let goal = options.goal;
+    let (bandwidth, bandwidth_reason) = match goal.bandwidth_rad_s {
+        Some(w) => (w, "as asked (--goal)".to_string()),
+        None => drive_limited_bandwidth(&model, &config, axis, goal, period_s)
+            .map_err(|e| anyhow::anyhow!("{origin} with {cfg_name}: {e}"))?,
+    };
+
+    // The slower direction: the less loop gain at the goal's bandwidth.
+    let design_direction = if model.has_two_directions()
+        && model.linear(Direction::Negative).response(bandwidth).norm()
+            < model.linear(Direction::Positive).response(bandwidth).norm()
+    {
+        Direction::Negative
+    } else {
+        Direction::Positive
+    };
+    let (ad, bd) = model.linear(design_direction).discretise(period_s)?;
+    let order = ad.len() - 1;
+    let poles = goal_poles(order, bandwidth, goal.damping, goal.fast, period_s);
+    let controller = place(&ad, &bd, &poles)?;
+    let mut directions = Vec::new();
+    for dir in [Direction::Positive, Direction::Negative] {
+        let (a_d, b_d) = model.linear(dir).discretise(period_s)?;
+        directions.push(DirectionDesign {
+            direction: dir,
+            analysis: analyse(&a_d, &b_d, &controller, period_s),
+        });
+    }
+    for d in &directions {
+        anyhow::ensure!(
+            d.analysis.spectral_radius < 1.0,
+            "{origin}: the design for the {} direction leaves the {} direction unstable \
+             (closed-loop pole at |z| = {:.3}); ask for a lower bandwidth (--goal bandwidth=...)",
+            design_direction.name(),
+            d.direction.name(),
+            d.analysis.spectral_radius
+        );
+    }
+
+    // Robustness over the corners of the fitted intervals.
+    let names = design_parameters(family);
+    let all = corners(fitted, names);
+    let mut robustness = Robustness {
+        corners: all.len(),
+        parameters: all
+            .first()
+            .map(|c| c.iter().map(|(n, _)| n.clone()).collect())
+            .unwrap_or_default(),
+        spectral_radius_max: 0.0,
+        gain_margin_min: None,
+        phase_margin_min_deg: None,
+        overshoot_max: 0.0,
+    };
+    for corner in &all {
+        let value = |n: &str| {
+            corner
+                .iter()
+                .find(|(c, _)| c == n)
+                .map(|(_, v)| *v)
+                .or_else(|| fitted.get(n))
+        };
+        let m = AxisModel::with_values(family, &value).map_err(|e| anyhow::anyhow!("{e}"))?;
+        for dir in [Direction::Positive, Direction::Negative] {
+            let (a_d, b_d) = m.linear(dir).discretise(period_s)?;
+            let an = analyse(&a_d, &b_d, &controller, period_s);
+            if an.spectral_radius >= 1.0 {
+                anyhow::bail!(
+                    "{origin}: the design is unstable within the fitted intervals ({} direction at {}: \
+                     closed-loop pole at |z| = {:.3}): the intervals are too wide to design from at \
+                     {bandwidth:.1} rad/s; ask for a lower bandwidth or fit on more data",
+                    dir.name(),
+                    corner
+                        .iter()
+                        .map(|(n, v)| format!("{n} = {v:.4e}"))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    an.spectral_radius
+                );
+            }
+            let r = &mut robustness;
+            r.spectral_radius_max = r.spectral_radius_max.max(an.spectral_radius);
+            r.overshoot_max = r.overshoot_max.max(an.overshoot());
+            if let Some(g) = an.gain_margin {
+                r.gain_margin_min = Some(r.gain_margin_min.map_or(g, |x: f64| x.min(g)));
+            }
+            if let Some(p) = an.phase_margin_deg {
+                r.phase_margin_min_deg = Some(r.phase_margin_min_deg.map_or(p, |x: f64| x.min(p)));
+            }
+        }
+    }
+
+    // Write the configuration.
+    let doc: toml_edit::DocumentMut = config_text
+        .parse()
+        .map_err(|e| anyhow::anyhow!("{cfg_name}: {e}"))?;
+    let mut ed = Editor::new(doc, axis);
+    let design_text = format!(
+        "pole placement on the {} direction's model ({}), goal: {bandwidth:.1} rad/s, damping {}, other poles {}x faster, T0 = {} ms",
+        design_direction.name(),
+        if model.has_two_directions() {
+            "the slower; the other checked"
+        } else {
+            "both directions alike"
+        },
+        goal.damping,
+        goal.fast,
+        period_s * 1e3
+    );
+    ed.set_list("controller", "q_per_m", &controller.q, 10, &design_text);
+    ed.set_list("controller", "p", &controller.p, 10, &design_text);
+    ed.keep(
+        "axis.controller.output_min, output_max",
+        "the drive's limits, not the model's",
+    );
+
+    // Friction compensation: levels from the identified dry friction.
+    let step = &directions[design_direction as usize].analysis;
+    let mut friction_start = None;
+    let scale = match family {
+        // The lab's linear_axis forces are per command unit: back to newtons with the
+        // configured drive gain, which these data cannot determine.
+        Family::LinearAxis => a
+            .friction_compensation
+            .as_ref()
+            .map_or(1.0, |f| f.force_gain_n_per_command),
+        _ => 1.0,
+    };
+    let k_mean = 0.5 * (model.gain[0] + model.gain[1]) * scale;
+    // A Coulomb level the fit kept (collinear with the pretension or an offset on these data)
+    // is not determined; the band F_C+ + F_C- is: split it evenly.
+    let (pos_n, neg_n) = ("coulomb.coulomb_pos_n", "coulomb.coulomb_neg_n");
+    let split = fitted.intervals.contains_key(pos_n) != fitted.intervals.contains_key(neg_n);
+    let coulomb = model
+        .coulomb
+        .map(|c| if split { [0.5 * (c[0] + c[1]); 2] } else { c });
+    match (&a.friction_compensation, coulomb) {
+        (Some(fc), Some(c)) => {
+            for (key, name, v) in [
+                ("coulomb_pos_n", pos_n, c[0]),
+                ("coulomb_neg_n", neg_n, c[1]),
+            ] {
+                let from = if split {
+                    format!(
+                        "half the friction band coulomb.coulomb_pos_n + coulomb.coulomb_neg_n of \
+                         {origin} (the fit kept one level: the split between the directions is \
+                         not determined){}",
+                        scaled(family, scale)
+                    )
+                } else {
+                    format!("{name} of {origin}{}", scaled(family, scale))
+                };
+                ed.set_f64("friction_compensation", key, v * scale, from);
+            }
+            match family {
+                Family::Solenoid => ed.set_f64(
+                    "friction_compensation",
+                    "force_gain_n_per_command",
+                    k_mean,
+                    format!(
+                        "solenoid.current_gain_a_per_v x solenoid.force_constant_n_per_a of {origin}"
+                    ),
+                ),
+                _ => ed.keep(
+                    "axis.friction_compensation.force_gain_n_per_command",
+                    "the lab's linear_axis balance takes the command as the force: the drive's \
+                     newtons per volt are not in the data (the levels above are written with it)",
+                ),
+            }
+            let start = [
+                fc.alpha * c[0] * scale / k_mean,
+                fc.alpha * c[1] * scale / k_mean,
+            ];
+            friction_start = Some(start);
+            ed.keep(
+                "axis.friction_compensation.alpha, deadband_m",
+                "the share left to the integral part and the sensor's noise: not the model's",
+            );
+            if a.adaptive_friction.is_some() {
+                if let Some(tm) = step.time_constant_s() {
+                    ed.set_f64(
+                        "adaptive_friction",
+                        "model_time_constant_s",
+                        tm,
+                        "time to 63 % of the designed loop's predicted step (the reference model \
+                         is the loop without friction)",
+                    );
+                }
+                let most = 3.0 * start[0].max(start[1]) / fc.alpha.max(f64::MIN_POSITIVE);
+                ed.set_f64(
+                    "adaptive_friction",
+                    "compensation_max",
+                    most,
+                    "three times the identified friction in command units",
+                );
+                ed.keep(
+                    "axis.adaptive_friction (start values)",
+                    format!(
+                        "the adaptation starts from the compensation above: {:.4} / {:.4} per \
+                         direction (alpha F_C / K)",
+                        start[0], start[1]
+                    ),
+                );
+                ed.keep(
+                    "axis.adaptive_friction.adaptation_gain_per_m_s, deadbands, settled_band_m",
+                    "speed of learning and the sensor's noise: not the model's",
+                );
+            }
+        }
+        (Some(_), None) => ed.keep(
+            "axis.friction_compensation",
+            format!("{origin} has no coulomb friction: the levels are kept"),
+        ),
+        (None, Some(_)) => ed.keep(
+            "axis.friction_compensation",
+            "not configured: tune does not add sections",
+        ),
+        (None, None) => {}
+    }
+
+    // Observer and parameter estimation (the solenoid's model).
+    if family == Family::Solenoid {
+        let declared = |name: &str| -> String {
+            if fitted.intervals.contains_key(name) {
+                format!("{name} of {origin}")
+            } else {
+                format!("{name} of {origin} (declared in the model, not determined by the fit)")
+            }
+        };
+        let ki = fitted.get("solenoid.current_gain_a_per_v").unwrap_or(0.0);
+        let kmag = fitted.get("solenoid.force_constant_n_per_a").unwrap_or(0.0);
+        let ti = model.lag_s.unwrap_or(0.0);
+        if a.observer.is_some() {
+            ed.set_f64(
+                "observer",
+                "mass_kg",
+                model.mass,
+                declared("solenoid.mass_kg"),
+            );
+            ed.set_f64(
+                "observer",
+                "damping_n_s_per_m",
+                0.5 * (model.damping[0] + model.damping[1]),
+                format!("mean of viscous.damping_pos/neg_n_s_per_m of {origin}"),
+            );
+            ed.set_f64(
+                "observer",
+                "spring_n_per_m",
+                model.stiffness,
+                declared("spring.stiffness_n_per_m"),
+            );
+            ed.set_f64(
+                "observer",
+                "force_constant_n_per_a",
+                kmag,
+                declared("solenoid.force_constant_n_per_a"),
+            );
+            ed.set_f64(
+                "observer",
+                "current_gain_a_per_v",
+                ki,
+                declared("solenoid.current_gain_a_per_v"),
+            );
+            ed.set_f64(
+                "observer",
+                "current_time_constant_s",
+                ti,
+                declared("solenoid.current_time_constant_s"),
+            );
+            ed.keep(
+                "axis.observer.poles, bands, warm-up",
+                "the observer's own design and the noise it learns its bands from",
+            );
+        }
+        if let Some(pe) = &a.parameter_estimation {
+            ed.set_f64(
+                "parameter_estimation",
+                "mass_kg",
+                model.mass,
+                declared("solenoid.mass_kg"),
+            );
+            ed.set_f64(
+                "parameter_estimation",
+                "current_time_constant_s",
+                ti,
+                declared("solenoid.current_time_constant_s"),
+            );
+            // p = [T_I, D, ω0, K_P, F_C, F_0] of the model and its spread over the intervals.
+            let nominal_of = |m: &AxisModel| -> [f64; 6] {
+                let w0 = m.natural_frequency();
+                [
+                    m.lag_s.unwrap_or(0.0),
+                    0.5 * (m.damping[0] + m.damping[1]) / (2.0 * m.mass * w0),
+                    w0,
+                    0.5 * (m.gain[0] + m.gain[1]) / m.stiffness,
+                    m.coulomb.map_or(0.0, |c| 0.5 * (c[0] + c[1])),
+                    m.pretension,
+                ]
+            };
+            let p = nominal_of(&model);
+            let needs: [&[&str]; 6] = [
+                &["solenoid.current_time_constant_s"],
+                &[
+                    "viscous.damping_pos_n_s_per_m",
+                    "spring.stiffness_n_per_m",
+                    "solenoid.mass_kg",
+                ],
+                &["spring.stiffness_n_per_m", "solenoid.mass_kg"],
+                &["spring.stiffness_n_per_m"],
+                &["coulomb.coulomb_pos_n", "coulomb.coulomb_neg_n"],
+                &["spring.pretension_n"],
+            ];
+            let undetermined: Vec<&str> = crate::supervise::PHYSICAL_NAMES
+                .iter()
+                .zip(needs)
+                .filter(|(_, n)| n.iter().any(|n| !fitted.intervals.contains_key(*n)))
+                .map(|(name, _)| *name)
+                .collect();
+            // The spread of p over the corners of every interval the fit gave.
+            let mut spread = [0.0_f64; 6];
+            let every: Vec<&str> = fitted.intervals.keys().map(String::as_str).collect();
+            for corner in corners(fitted, &every) {
+                let value = |n: &str| {
+                    corner
+                        .iter()
+                        .find(|(c, _)| c == n)
+                        .map(|(_, v)| *v)
+                        .or_else(|| fitted.get(n))
+                };
+                if let Ok(m) = AxisModel::with_values(family, &value) {
+                    for (s, (pc, pn)) in spread.iter_mut().zip(nominal_of(&m).iter().zip(p)) {
+                        *s = s.max((pc - pn).abs() / pn.abs().max(f64::MIN_POSITIVE));
+                    }
+                }
+            }
+            if undetermined.is_empty() && p.iter().all(|v| v.is_finite() && *v > 0.0) {
+                let mut t = toml_edit::InlineTable::new();
+                for (k, v) in [
+                    "current_time_constant_s",
+                    "damping_ratio",
+                    "natural_frequency_rad_per_s",
+                    "static_gain_m_per_v",
+                    "coulomb_friction_n",
+                    "pretension_n",
+                ]
+                .iter()
+                .zip(p)
+                {
+                    t.insert(*k, round_sig(v, 6).into());
+                }
+                ed.set(
+                    "parameter_estimation",
+                    "nominal",
+                    toml_edit::Value::InlineTable(t),
+                    format!("p = [T_I, D, w0, K_P, F_C, F_0] of {origin}"),
+                );
+                let floor: Vec<f64> = pe
+                    .relative_floor
+                    .iter()
+                    .zip(spread)
+                    .map(|(f, s)| f.max(s))
+                    .collect();
+                ed.set_list(
+                    "parameter_estimation",
+                    "relative_floor",
+                    &floor,
+                    3,
+                    "the configured floor, widened to the fit's 95 % spread of each p",
+                );
+            } else {
+                ed.keep(
+                    "axis.parameter_estimation.nominal",
+                    format!(
+                        "the fit did not determine {} (no interval): the nominal p is learned from \
+                         the first windows in operation as configured; the fit's p would be \
+                         [{}] with spreads [{}]",
+                        undetermined.join(", "),
+                        p.iter()
+                            .map(|v| format!("{:.4e}", v))
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                        spread
+                            .iter()
+                            .map(|v| format!("{:.0} %", 100.0 * v))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                );
+            }
+            ed.keep(
+                "axis.parameter_estimation.fault_table",
+                "the fault-symptom table: `actuator bench fault-table` derives it for the \
+                 reference solenoid (config/solenoid.toml with config/plants/solenoid.toml) only; \
+                 it is not regenerated for this plant",
+            );
+        }
+    } else {
+        if a.observer.is_some() || a.parameter_estimation.is_some() {
+            ed.keep(
+                "axis.observer, axis.parameter_estimation",
+                "models of the solenoid drive: kept",
+            );
+        }
+    }
+
+    // The supply schedule: gain factor (U_nom / U)^κ where the model has the supply's law.
+    if let Some(s) = &a.schedule {
+        match (
+            s.supply_voltage_v.as_ref(),
+            model.supply_exponent,
+            model.supply_nominal,
+            fitted.intervals.contains_key("supply_gain.exponent"),
+        ) {
+            (Some(points), Some(kappa), Some(nominal), true) => {
+                let factors: Vec<f64> = points.iter().map(|u| (nominal / u).powf(kappa)).collect();
+                ed.set_list(
+                    "schedule",
+                    "gain_factor",
+                    &factors,
+                    5,
+                    format!("(U_nom / U)^kappa with supply_gain.exponent of {origin}"),
+                );
+            }
+            _ => ed.keep(
+                "axis.schedule",
+                format!(
+                    "{origin} does not determine the supply's law (no fitted supply_gain: the \
+                     record's supply did not vary, or the model lacks the effect)"
+                ),
+            ),
+        }
+    }
+    ed.keep(
+        "axis.limits, axis.setpoints, [bus], [node], [cycle]",
+        "the installation's, not the model's",
+    );
+
+    let body = ed.doc.to_string();
+    let header = format!(
+        "# Tuned by `actuator tune` from the fitted model {origin} and {cfg_name}.\n\
+         # Values marked `# tuned` are new (the comments above them describe the configuration \
+         they replace);\n# `actuator tune` prints where each comes from.\n"
+    );
+    let text = format!("{header}{body}");
+    Config::from_toml(&text, config_path).map_err(|e| {
+        anyhow::anyhow!("the tuned configuration does not pass the daemon's validation: {e}")
+    })?;
+    Ok(Tuning {
+        text,
+        family,
+        model,
+        period_s,
+        goal,
+        bandwidth_rad_s: bandwidth,
+        bandwidth_reason,
+        design_direction,
+        controller,
+        directions,
+        robustness,
+        friction_start,
+        changes: ed.changes,
+        kept: ed.kept,
+    })
+}
+
+fn scaled(family: Family, scale: f64) -> String {
+    match family {
+        Family::LinearAxis => format!(" (per command unit) x the configured {scale} N per command"),
+        _ => String::new(),
+    }
+}
+
+fn opt(v: Option<f64>, unit: &str) -> String {
+    v.map_or("none".to_string(), |v| format!("{v:.3}{unit}"))
+}
+
+impl fmt::Display for Tuning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let m = &self.model;
+        writeln!(
+            f,
+            "model: {} m = {:.4e}, d = {:.4e} / {:.4e}, c = {:.4e}, K = {:.4e} / {:.4e}{}",
+            self.family,
+            m.mass,
+            m.damping[0],
+            m.damping[1],
+            m.stiffness,
+            m.gain[0],
+            m.gain[1],
+            m.lag_s
+                .map_or(String::new(), |t| format!(", lag {:.3} ms", t * 1e3))
+        )?;
+        writeln!(
+            f,
+            "goal: closed-loop pair at {:.1} rad/s, damping {}, other poles {}x faster ({})",
+            self.bandwidth_rad_s, self.goal.damping, self.goal.fast, self.bandwidth_reason
+        )?;
+        writeln!(
+            f,
+            "designed on the {} direction{}",
+            self.design_direction.name(),
+            if self.model.has_two_directions() {
+                " (the slower), the other checked"
+            } else {
+                " (both alike)"
+            }
+        )?;
+        writeln!(
+            f,
+            "controller: q_per_m = [{}], p = [{}]",
+            self.controller
+                .q
+                .iter()
+                .map(|v| format!("{v:.6e}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            self.controller
+                .p
+                .iter()
+                .map(|v| format!("{v:.6}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )?;
+        writeln!(
+            f,
+            "  direction  |z|max  overshoot  rise 90 %  settle 2 %  gain margin  phase margin  crossover    Ms"
+        )?;
+        for d in &self.directions {
+            let a = &d.analysis;
+            writeln!(
+                f,
+                "  {:<9}  {:>5.3}  {:>8.1} %  {:>9}  {:>10}  {:>11}  {:>12}  {:>9}  {:>4.2}",
+                d.direction.name(),
+                a.spectral_radius,
+                100.0 * a.overshoot(),
+                opt(a.rise_time_s().map(|t| t * 1e3), " ms"),
+                opt(a.settling_time_s().map(|t| t * 1e3), " ms"),
+                opt(a.gain_margin, ""),
+                opt(a.phase_margin_deg, "°"),
+                opt(a.crossover_rad_s, ""),
+                a.sensitivity_peak
+            )?;
+        }
+        let r = &self.robustness;
+        writeln!(
+            f,
+            "robustness over {} corners of the fitted intervals of [{}], both directions: |z|max {:.3}, gain margin >= {}, phase margin >= {}, overshoot <= {:.1} %",
+            r.corners,
+            r.parameters.join(", "),
+            r.spectral_radius_max,
+            opt(r.gain_margin_min, ""),
+            opt(r.phase_margin_min_deg, "°"),
+            100.0 * r.overshoot_max
+        )?;
+        if let Some(s) = self.friction_start {
+            writeln!(
+                f,
+                "friction compensation starts at {:.4} (positive) / {:.4} (negative) command units",
+                s[0], s[1]
+            )?;
+        }
+        writeln!(f, "changed:")?;
+        for c in &self.changes {
+            writeln!(
+                f,
+                "  {:<50} {} -> {}\n  {:<50}   from {}",
+                c.key, c.before, c.after, "", c.origin
+            )?;
+        }
+        writeln!(f, "kept:")?;
+        for k in &self.kept {
+            writeln!(f, "  {:<50} {}", k.key, k.reason)?;
+        }
+        Ok(())
+    }
+}
+
+/// Derive the fault-symptom table for the tuned axis on the fitted plant (the daemon of the
+/// tuned configuration and the fitted model in lock-step, healthy and with each fault, as
+/// `actuator bench fault-table` does for the reference solenoid), write it to `table`, and name
+/// it in the tuned configuration (`table_key`: the path as the configuration gives it, relative
+/// to the configuration's folder). Returns the derivation's summary.
+pub fn regenerate_fault_table(
+    tuning: &mut Tuning,
+    fitted: &Fitted,
+    config_path: &Path,
+    table: &Path,
+    table_key: &str,
+) -> anyhow::Result<String> {
+    use crate::bench::fault_table::{derive_with, FaultTableOptions, Simulation};
+    anyhow::ensure!(
+        tuning.family == Family::Solenoid,
+        "the fault-symptom table is the solenoid's parameter diagnosis; {} has none",
+        tuning.family
+    );
+    let config = Config::from_toml(&tuning.text, config_path)?;
+    let options = FaultTableOptions::default();
+    let sim = Simulation::with(&options, config, fitted.model.spec.clone())?;
+    let derived = derive_with(&sim)?;
+    let header = format!(
+        "Fault-symptom table derived by `actuator tune --fault-table` for the plant fitted in\n\
+         {}: the tuned daemon and the fitted model in lock-step, healthy and with each fault\n\
+         (see `actuator bench fault-table` for how).",
+        fitted.origin
+    );
+    std::fs::write(table, derived.file.to_toml(&header))
+        .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", table.display()))?;
+    let mut doc: toml_edit::DocumentMut = tuning.text.parse()?;
+    let mut ed = Editor::new(std::mem::take(&mut doc), 0);
+    ed.set(
+        "parameter_estimation",
+        "fault_table",
+        toml_edit::Value::from(table_key),
+        "derived for the fitted plant with the tuned configuration",
+    );
+    tuning.text = ed.doc.to_string();
+    tuning.changes.extend(ed.changes);
+    tuning
+        .kept
+        .retain(|k| k.key != "axis.parameter_estimation.fault_table");
+    Config::from_toml(&tuning.text, config_path).map_err(|e| {
+        anyhow::anyhow!("the tuned configuration does not pass the daemon's validation: {e}")
+    })?;
+    Ok(derived.summary())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn goal_parses_and_names_what_is_wrong() {
+        let g: Goal = "bandwidth=30,damping=0.8".parse().expect("goal");
+        assert_eq!(g.bandwidth_rad_s, Some(30.0));
+        assert_eq!(g.damping, 0.8);
+        assert!("speed=3".parse::<Goal>().unwrap_err().contains("speed"));
+        assert!("damping=-1"
+            .parse::<Goal>()
+            .unwrap_err()
+            .contains("damping"));
+    }
+}

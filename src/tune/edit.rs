@@ -1,0 +1,132 @@
+//! Writing values into an axis of a configuration file, keeping its comments, and the list of
+//! what changed and where it came from.
+
+use toml_edit::{DocumentMut, Item, Table, Value};
+
+/// One changed value.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Change {
+    /// Key, e.g. `axis.controller.q_per_m`.
+    pub key: String,
+    pub before: String,
+    pub after: String,
+    /// Where the new value comes from.
+    pub origin: String,
+}
+
+/// A value left as it was, and why.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Kept {
+    pub key: String,
+    pub reason: String,
+}
+
+/// The configuration being tuned: one axis' table of the document.
+pub struct Editor {
+    pub doc: DocumentMut,
+    axis: usize,
+    pub changes: Vec<Change>,
+    pub kept: Vec<Kept>,
+}
+
+/// A number rounded to `digits` significant digits (the file stays readable).
+pub fn round_sig(x: f64, digits: usize) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    format!("{x:.*e}", digits.saturating_sub(1))
+        .parse()
+        .unwrap_or(x)
+}
+
+fn render(item: Option<&Item>) -> String {
+    item.and_then(|i| i.as_value())
+        .map(|v| v.to_string().trim().to_string())
+        .unwrap_or_else(|| "absent".to_string())
+}
+
+impl Editor {
+    pub fn new(doc: DocumentMut, axis: usize) -> Self {
+        Editor {
+            doc,
+            axis,
+            changes: Vec::new(),
+            kept: Vec::new(),
+        }
+    }
+
+    fn axis_table(&mut self) -> Option<&mut Table> {
+        self.doc
+            .get_mut("axis")?
+            .as_array_of_tables_mut()?
+            .get_mut(self.axis)
+    }
+
+    /// True when the axis has section `section`.
+    pub fn has_section(&mut self, section: &str) -> bool {
+        self.axis_table()
+            .is_some_and(|t| t.get(section).is_some_and(|s| s.is_table_like()))
+    }
+
+    /// The current value of `section.key` of the axis.
+    pub fn get(&mut self, section: &str, key: &str) -> Option<Value> {
+        let t = self.axis_table()?;
+        t.get(section)?.get(key)?.as_value().cloned()
+    }
+
+    /// Set `section.key` of the axis (the section is created if absent), noting the origin.
+    pub fn set(&mut self, section: &str, key: &str, value: Value, origin: impl Into<String>) {
+        let Some(t) = self.axis_table() else { return };
+        if t.get(section).is_none() {
+            let mut s = Table::new();
+            s.set_implicit(false);
+            t.insert(section, Item::Table(s));
+        }
+        let Some(s) = t.get_mut(section).and_then(|s| s.as_table_like_mut()) else {
+            return;
+        };
+        let before = render(s.get(key));
+        let mut value = value;
+        value.decor_mut().clear();
+        let after = value.to_string().trim().to_string();
+        // A value the model confirms stays as written, comment and all.
+        if after == before {
+            self.kept.push(Kept {
+                key: format!("axis.{section}.{key}"),
+                reason: format!("the same as from {}", origin.into()),
+            });
+            return;
+        }
+        value.decor_mut().set_suffix("  # tuned");
+        s.insert(key, Item::Value(value));
+        self.changes.push(Change {
+            key: format!("axis.{section}.{key}"),
+            before,
+            after,
+            origin: origin.into(),
+        });
+    }
+
+    pub fn set_f64(&mut self, section: &str, key: &str, v: f64, origin: impl Into<String>) {
+        self.set(section, key, Value::from(round_sig(v, 6)), origin);
+    }
+
+    pub fn set_list(
+        &mut self,
+        section: &str,
+        key: &str,
+        v: &[f64],
+        digits: usize,
+        origin: impl Into<String>,
+    ) {
+        let array: toml_edit::Array = v.iter().map(|x| round_sig(*x, digits)).collect();
+        self.set(section, key, Value::Array(array), origin);
+    }
+
+    pub fn keep(&mut self, key: impl Into<String>, reason: impl Into<String>) {
+        self.kept.push(Kept {
+            key: key.into(),
+            reason: reason.into(),
+        });
+    }
+}

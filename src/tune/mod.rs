@@ -1,0 +1,26 @@
+//! `actuator tune`: from a fitted model (the lab's model file with its intervals) and an axis
+//! configuration, the axis configuration for the identified plant.
+//!
+//! Isermann & Raab's intelligent actuator designs its controller from the identified
+//! direction-dependent models (its PIDT1 for the slower direction, the other one checked) and
+//! starts its friction compensation and supervision from the identified parameters. Here:
+//!
+//! | file | job |
+//! |---|---|
+//! | [`fitted`] | the fitted model file and its 95 % intervals |
+//! | [`plant`] | the linear model per direction, and the corners of the intervals |
+//! | [`design`] | pole placement of the daemon's discrete controller; poles, step, margins |
+//! | [`edit`] | writing values into the configuration, keeping its comments; what changed |
+//! | [`axis`] | the whole tuning of one axis: design, robustness, friction, supervision, schedule |
+//!
+//! The layer uses the lab (model files), the daemon's configuration (its types and validation)
+//! and the control layer's linear systems; nothing uses it but the `actuator` binary.
+
+pub mod axis;
+pub mod design;
+pub mod edit;
+pub mod fitted;
+pub mod plant;
+
+pub use axis::{regenerate_fault_table, tune, Goal, TuneOptions, Tuning};
+pub use fitted::Fitted;
