@@ -75,14 +75,16 @@ fn friction_ff() -> FrictionFeedForward {
 fn adaptive_friction() -> AdaptiveFriction {
     AdaptiveFriction::new(AdaptiveFrictionConfig {
         period_s: T0,
-        model_time_constant_s: 0.03,
-        adaptation_gain_per_m_s: 2000.0,
-        max_compensation: 0.4,
+        params: actuatord::control::AdaptiveFrictionSection {
+            model_time_constant_s: 0.03,
+            adaptation_gain_per_m_s: 2000.0,
+            compensation_max: 0.4,
+            error_deadband_m: 3e-6,
+            model_deadband_m: 10e-6,
+            settled_band_m: 20e-6,
+        },
         initial_pos: 0.098,
         initial_neg: 0.098,
-        error_deadband_m: 3e-6,
-        model_deadband_m: 10e-6,
-        settled_band_m: 20e-6,
     })
     .expect("valid adaptive friction")
 }

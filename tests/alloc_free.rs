@@ -162,14 +162,16 @@ fn new_control_algorithms_do_not_allocate() {
     .expect("ok");
     let mut af = AdaptiveFriction::new(AdaptiveFrictionConfig {
         period_s: 0.0025,
-        model_time_constant_s: 0.03,
-        adaptation_gain_per_m_s: 2000.0,
-        max_compensation: 0.4,
+        params: actuatord::control::AdaptiveFrictionSection {
+            model_time_constant_s: 0.03,
+            adaptation_gain_per_m_s: 2000.0,
+            compensation_max: 0.4,
+            error_deadband_m: 3e-6,
+            model_deadband_m: 10e-6,
+            settled_band_m: 20e-6,
+        },
         initial_pos: 0.0,
         initial_neg: 0.0,
-        error_deadband_m: 3e-6,
-        model_deadband_m: 10e-6,
-        settled_band_m: 20e-6,
     })
     .expect("ok");
     let point = |s: f64, k: f64| SchedulePoint {
@@ -304,14 +306,16 @@ fn the_learned_table_the_state_offer_and_a_prepared_reload_do_not_allocate() {
     let mut memory = OperatingPointMemory::new(table, 3);
     let mut friction = AdaptiveFriction::new(AdaptiveFrictionConfig {
         period_s: 0.0025,
-        model_time_constant_s: 0.03,
-        adaptation_gain_per_m_s: 2000.0,
-        max_compensation: 0.4,
+        params: actuatord::control::AdaptiveFrictionSection {
+            model_time_constant_s: 0.03,
+            adaptation_gain_per_m_s: 2000.0,
+            compensation_max: 0.4,
+            error_deadband_m: 3e-6,
+            model_deadband_m: 1e-5,
+            settled_band_m: 2e-5,
+        },
         initial_pos: 0.1,
         initial_neg: 0.1,
-        error_deadband_m: 3e-6,
-        model_deadband_m: 1e-5,
-        settled_band_m: 2e-5,
     })
     .expect("valid");
     let n = count(|k| {

@@ -205,14 +205,16 @@ pub struct SmallStepResult {
 pub fn solenoid_adaptive_friction_config() -> AdaptiveFrictionConfig {
     AdaptiveFrictionConfig {
         period_s: SOLENOID_PERIOD_S,
-        model_time_constant_s: 0.015,
-        adaptation_gain_per_m_s: 20_000.0,
-        max_compensation: 1.0,
+        params: crate::control::AdaptiveFrictionSection {
+            model_time_constant_s: 0.015,
+            adaptation_gain_per_m_s: 20_000.0,
+            compensation_max: 1.0,
+            error_deadband_m: 3e-6,
+            model_deadband_m: 10e-6,
+            settled_band_m: 20e-6,
+        },
         initial_pos: 0.27,
         initial_neg: 0.27,
-        error_deadband_m: 3e-6,
-        model_deadband_m: 10e-6,
-        settled_band_m: 20e-6,
     }
 }
 

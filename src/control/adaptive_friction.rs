@@ -28,27 +28,19 @@
 //! over-compensation, expected and bounded by `U_max` and the adaptation rate `γ`.
 
 use super::param_error::{non_negative, positive, ParamError};
+use super::AdaptiveFrictionSection;
+use crate::param::Declared;
 
-/// Configuration of [`AdaptiveFriction`].
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Configuration of [`AdaptiveFriction`]: the declared section and what the axis adds.
+#[derive(Debug, Clone, PartialEq)]
 pub struct AdaptiveFrictionConfig {
     /// `T_0` (s).
     pub period_s: f64,
-    /// `T_M`, time constant of the reference model (s): the closed loop's speed without friction.
-    pub model_time_constant_s: f64,
-    /// `γ`, adaptation gain (command unit per m per s).
-    pub adaptation_gain_per_m_s: f64,
-    /// `U_max`, largest compensation per direction (command unit).
-    pub max_compensation: f64,
+    /// `[axis.adaptive_friction]`: `T_M`, `γ`, `U_max` and the bands, as declared.
+    pub params: AdaptiveFrictionSection,
     /// Starting `U_comp+` and `U_comp-` (e.g. the feed-forward value `α F_C± / K`).
     pub initial_pos: f64,
     pub initial_neg: f64,
-    /// `e_db` (m): control errors within this give no compensation.
-    pub error_deadband_m: f64,
-    /// `e_M,db` (m): model deviations within this do not adapt.
-    pub model_deadband_m: f64,
-    /// `s_M` (m): adapt only when `|w - y_M|` is below this (model settled).
-    pub settled_band_m: f64,
 }
 
 /// What [`AdaptiveFriction::step`] computed.
@@ -83,33 +75,27 @@ pub struct AdaptiveFriction {
 }
 
 impl AdaptiveFriction {
-    /// Checks periods (> 0), gains and bands (>= 0), initial values within `[0, U_max]`.
+    /// Checks the period (> 0), the section against its declaration, initial values within
+    /// `[0, U_max]`.
     pub fn new(config: AdaptiveFrictionConfig) -> Result<Self, ParamError> {
         let c = &config;
         positive("period_s", c.period_s)?;
-        positive("model_time_constant_s", c.model_time_constant_s)?;
-        non_negative("adaptation_gain_per_m_s", c.adaptation_gain_per_m_s)?;
-        non_negative("max_compensation", c.max_compensation)?;
+        c.params.check()?;
+        let max = c.params.compensation_max;
         for (name, v) in [
             ("initial_pos", c.initial_pos),
             ("initial_neg", c.initial_neg),
         ] {
             non_negative(name, v)?;
-            if v > c.max_compensation {
+            if v > max {
                 return Err(ParamError::new(
                     name,
-                    format!(
-                        "must be <= max_compensation {}, got {v}",
-                        c.max_compensation
-                    ),
+                    format!("must be <= compensation_max {max}, got {v}"),
                 ));
             }
         }
-        non_negative("error_deadband_m", c.error_deadband_m)?;
-        non_negative("model_deadband_m", c.model_deadband_m)?;
-        positive("settled_band_m", c.settled_band_m)?;
         Ok(Self {
-            a: (-c.period_s / c.model_time_constant_s).exp(),
+            a: (-c.period_s / c.params.model_time_constant_s).exp(),
             y_model: None,
             approach: 0.0,
             last_setpoint: f64::NAN,
@@ -128,7 +114,7 @@ impl AdaptiveFriction {
 
     /// Restart from stored values (e.g. from the learned table), clamped to `[0, U_max]`.
     pub fn set_compensation_values(&mut self, pos: f64, neg: f64) {
-        let m = self.config.max_compensation;
+        let m = self.config.params.compensation_max;
         if pos.is_finite() {
             self.comp_pos = pos.clamp(0.0, m);
         }
@@ -147,7 +133,8 @@ impl AdaptiveFriction {
 
     /// One step with set-point `w` and measured position `y`.
     pub fn step(&mut self, setpoint: f64, position: f64) -> AdaptiveFrictionOutput {
-        let c = self.config;
+        let c = &self.config.params;
+        let period_s = self.config.period_s;
         if !(setpoint.is_finite() && position.is_finite()) {
             return AdaptiveFrictionOutput {
                 compensation_pos: self.comp_pos,
@@ -175,11 +162,11 @@ impl AdaptiveFriction {
         }
         if settled && !self.transient_overshoot && e_m.abs() > c.model_deadband_m {
             // ΔU_comp± = ∓γ T_0 e_M: short of the model raises, pushed past it lowers.
-            let step = c.adaptation_gain_per_m_s * c.period_s * e_m;
+            let step = c.adaptation_gain_per_m_s * period_s * e_m;
             if self.approach > 0.0 {
-                self.comp_pos = (self.comp_pos - step).clamp(0.0, c.max_compensation);
+                self.comp_pos = (self.comp_pos - step).clamp(0.0, c.compensation_max);
             } else if self.approach < 0.0 {
-                self.comp_neg = (self.comp_neg + step).clamp(0.0, c.max_compensation);
+                self.comp_neg = (self.comp_neg + step).clamp(0.0, c.compensation_max);
             }
         }
         // U_comp(k) = U_comp± sign(e_w(k)), zero within the error deadband.
@@ -207,14 +194,16 @@ mod tests {
     fn cfg() -> AdaptiveFrictionConfig {
         AdaptiveFrictionConfig {
             period_s: 0.0025,
-            model_time_constant_s: 0.02,
-            adaptation_gain_per_m_s: 1000.0,
-            max_compensation: 0.5,
+            params: AdaptiveFrictionSection {
+                model_time_constant_s: 0.02,
+                adaptation_gain_per_m_s: 1000.0,
+                compensation_max: 0.5,
+                error_deadband_m: 3e-6,
+                model_deadband_m: 5e-6,
+                settled_band_m: 20e-6,
+            },
             initial_pos: 0.0,
             initial_neg: 0.0,
-            error_deadband_m: 3e-6,
-            model_deadband_m: 5e-6,
-            settled_band_m: 20e-6,
         }
     }
 

@@ -8,6 +8,7 @@ pub use friction_ff::FrictionFeedForward;
 pub mod robust;
 
 mod adaptive_friction;
+mod adaptive_friction_section;
 mod adaptive_pneumatic;
 mod direction_p;
 mod dither;
@@ -20,6 +21,7 @@ mod scheduling;
 mod state_feedback;
 
 pub use adaptive_friction::{AdaptiveFriction, AdaptiveFrictionConfig, AdaptiveFrictionOutput};
+pub use adaptive_friction_section::AdaptiveFrictionSection;
 pub use adaptive_pneumatic::{
     GainSource, PneumaticAdaptive, PneumaticAdaptiveConfig, PneumaticStep,
 };

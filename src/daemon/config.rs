@@ -326,24 +326,8 @@ fn default_learn_interval_s() -> f64 {
     1.0
 }
 
-/// `[axis.adaptive_friction]`: `U_comp±` adapted from the reference-model deviation
-/// `e_M = y - y_M` (see `control::AdaptiveFriction`). Command unit: V or duty, as `command`.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct AdaptiveFrictionSection {
-    /// `T_M`, time constant of the first-order reference model: the loop's speed without friction.
-    pub model_time_constant_s: f64,
-    /// `γ`, command unit per m of model deviation per s.
-    pub adaptation_gain_per_m_s: f64,
-    /// Largest compensation per direction, command unit.
-    pub compensation_max: f64,
-    /// Control errors within this give no compensation, m.
-    pub error_deadband_m: f64,
-    /// Model deviations within this do not adapt (sensor noise), m.
-    pub model_deadband_m: f64,
-    /// Adapt only when `|w - y_M|` is below this (the model has settled), m.
-    pub settled_band_m: f64,
-}
+/// `[axis.adaptive_friction]`, declared with its ranges and access where the algorithm lives.
+pub use crate::control::AdaptiveFrictionSection;
 
 /// `[axis.dither]`: `u_d = A sin(2π f t)`, fixed or self-adapting (see `control::Dither`).
 #[derive(Debug, Clone, Deserialize, PartialEq)]
@@ -1087,14 +1071,9 @@ impl AxisConfig {
         };
         Some(AdaptiveFrictionConfig {
             period_s,
-            model_time_constant_s: a.model_time_constant_s,
-            adaptation_gain_per_m_s: a.adaptation_gain_per_m_s,
-            max_compensation: a.compensation_max,
+            params: a.clone(),
             initial_pos: clamp(pos),
             initial_neg: clamp(neg),
-            error_deadband_m: a.error_deadband_m,
-            model_deadband_m: a.model_deadband_m,
-            settled_band_m: a.settled_band_m,
         })
     }
 

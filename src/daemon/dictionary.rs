@@ -7,9 +7,10 @@ use super::learned::AxisLearned;
 use super::record::CycleRecord;
 use crate::canopen::od::{BuildError, Handle, PendingWrite};
 use crate::canopen::{ObjectDictionary, Value};
+use crate::control::AdaptiveFrictionSection;
 use crate::device::objects::axis_intelligence::{
-    symptom_bits, AdaptiveFrictionParameters, EstimationParameters, IntelligenceParameters,
-    ScheduleParameters, BAND_NAMES, ESTIMATE_NAMES, NOMINAL_NAMES,
+    symptom_bits, EstimationParameters, IntelligenceParameters, ScheduleParameters, BAND_NAMES,
+    ESTIMATE_NAMES, NOMINAL_NAMES,
 };
 use crate::device::objects::{daemon_dictionary, AxisParameters, DeviceParameters};
 use crate::param::Declared;
@@ -65,17 +66,7 @@ pub fn axis_parameters(a: &AxisConfig) -> AxisParameters {
 /// The intelligent sections as the dictionary shows them.
 fn intelligence_parameters(a: &AxisConfig) -> IntelligenceParameters {
     IntelligenceParameters {
-        adaptive_friction: a
-            .adaptive_friction
-            .as_ref()
-            .map(|f| AdaptiveFrictionParameters {
-                model_time_constant_s: f.model_time_constant_s,
-                adaptation_gain_per_m_s: f.adaptation_gain_per_m_s,
-                compensation_max: f.compensation_max,
-                error_deadband_m: f.error_deadband_m,
-                model_deadband_m: f.model_deadband_m,
-                settled_band_m: f.settled_band_m,
-            }),
+        adaptive_friction: a.adaptive_friction.clone(),
         observer: a.observer.clone(),
         estimation: a
             .parameter_estimation
@@ -265,23 +256,12 @@ fn apply_intelligence_write(
     let missing = || format!("{}: {name}: the section is not configured", w.id);
     let count = number as u32;
     match name {
-        "model_time_constant_s"
-        | "adaptation_gain_per_m_s"
-        | "compensation_max"
-        | "error_deadband_m"
-        | "model_deadband_m"
-        | "settled_band_m" => {
-            let f = a.adaptive_friction.as_mut().ok_or_else(missing)?;
-            *match name {
-                "model_time_constant_s" => &mut f.model_time_constant_s,
-                "adaptation_gain_per_m_s" => &mut f.adaptation_gain_per_m_s,
-                "compensation_max" => &mut f.compensation_max,
-                "error_deadband_m" => &mut f.error_deadband_m,
-                "model_deadband_m" => &mut f.model_deadband_m,
-                _ => &mut f.settled_band_m,
-            } = number;
-        }
         // Declared sections: the name is the declaration's, and so are the range checks.
+        _ if AdaptiveFrictionSection::spec(name).is_some() => {
+            let f = a.adaptive_friction.as_mut().ok_or_else(missing)?;
+            f.set(name, w.value.as_f64().unwrap_or(f64::NAN))
+                .map_err(|e| format!("{}: {e}", w.id))?;
+        }
         _ if ObserverSection::spec(name).is_some() => {
             let o = a.observer.as_mut().ok_or_else(missing)?;
             o.set(name, w.value.as_f64().unwrap_or(f64::NAN))

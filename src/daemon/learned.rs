@@ -101,14 +101,16 @@ mod tests {
     fn friction() -> AdaptiveFriction {
         AdaptiveFriction::new(AdaptiveFrictionConfig {
             period_s: 0.01,
-            model_time_constant_s: 0.05,
-            adaptation_gain_per_m_s: 1e4,
-            max_compensation: 2.0,
+            params: crate::control::AdaptiveFrictionSection {
+                model_time_constant_s: 0.05,
+                adaptation_gain_per_m_s: 1e4,
+                compensation_max: 2.0,
+                error_deadband_m: 1e-6,
+                model_deadband_m: 1e-6,
+                settled_band_m: 1e-5,
+            },
             initial_pos: 0.1,
             initial_neg: 0.1,
-            error_deadband_m: 1e-6,
-            model_deadband_m: 1e-6,
-            settled_band_m: 1e-5,
         })
         .expect("valid")
     }

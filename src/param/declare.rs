@@ -136,8 +136,13 @@ pub trait Declared {
     }
 }
 
+/// The unit a declared parameter gives as `COMMAND_UNIT` is the axis' command unit (V, duty, N,
+/// ...), known only when the dictionary is built for an axis.
+pub const COMMAND_UNIT: &str = "command";
+
 /// Declare a configuration section: a struct that TOML deserialises (unknown keys refused)
-/// and whose fields each carry unit, range, access and a line of documentation.
+/// and whose fields each carry unit, range, access, a line of documentation and, where one
+/// makes sense, a default (a key without a default is required).
 ///
 /// ```ignore
 /// declare_section! {
@@ -145,7 +150,8 @@ pub trait Declared {
 ///     pub struct ExampleSection {
 ///         /// Below this the residual counts as small.
 ///         residual_max_m: f64 = { unit: "m", min: 1e-12, max: 1e3,
-///                                 access: PreOperational, doc: "a line for the dictionary" },
+///                                 access: PreOperational, doc: "a line for the dictionary",
+///                                 default: 1e-4 },
 ///     }
 /// }
 /// ```
@@ -157,20 +163,41 @@ macro_rules! declare_section {
             $(
                 $(#[doc = $fdoc:literal])*
                 $field:ident : $ty:ty = {
-                    unit: $unit:literal,
+                    unit: $unit:expr,
                     min: $min:expr,
                     max: $max:expr,
                     access: $access:ident,
-                    doc: $doc:literal $(,)?
+                    doc: $doc:literal
+                    $(, default: $default:expr)? $(,)?
                 }
             ),* $(,)?
         }
     ) => {
         $(#[$meta])*
-        #[derive(Debug, Clone, PartialEq, serde::Deserialize)]
-        #[serde(deny_unknown_fields)]
+        #[derive(Debug, Clone, PartialEq)]
         pub struct $name {
             $( $(#[doc = $fdoc])* pub $field: $ty, )*
+        }
+
+        impl<'de> serde::Deserialize<'de> for $name {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                // Every key optional here, so that a declared default can stand in for a
+                // missing one; a key without a default is then reported missing by name.
+                #[derive(serde::Deserialize)]
+                #[serde(deny_unknown_fields)]
+                struct Keys {
+                    $( $field: Option<$ty>, )*
+                }
+                let keys = Keys::deserialize(d)?;
+                Ok($name {
+                    $(
+                        $field: match keys.$field {
+                            Some(v) => v,
+                            None => $crate::__declared_default!($field $(, $default)?),
+                        },
+                    )*
+                })
+            }
         }
 
         impl $crate::param::Declared for $name {
@@ -222,5 +249,18 @@ macro_rules! declare_section {
                 Ok(())
             }
         }
+    };
+}
+
+/// The value of a declared key the configuration leaves out: its default, or the error that
+/// names it as missing. Used by [`declare_section!`] inside `Deserialize::deserialize`.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __declared_default {
+    ($field:ident) => {
+        return Err(serde::de::Error::missing_field(stringify!($field)))
+    };
+    ($field:ident, $default:expr) => {
+        $default
     };
 }

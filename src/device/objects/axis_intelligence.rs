@@ -17,7 +17,8 @@
 
 use crate::canopen::od::EntrySpec;
 use crate::canopen::od::{ObjectDictionaryBuilder, Value};
-use crate::param::{Access as ParamAccess, Declared, Kind};
+use crate::control::AdaptiveFrictionSection;
+use crate::param::{Access as ParamAccess, Declared, Kind, COMMAND_UNIT};
 use crate::supervise::ObserverSection;
 
 /// Offsets inside an axis block (see `daemon_objects::index`).
@@ -29,17 +30,6 @@ pub const DIAGNOSIS: u16 = 0x11;
 
 /// Most schedule points the dictionary shows.
 pub const MAX_SCHEDULE_POINTS: usize = 8;
-
-/// `[axis.adaptive_friction]`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct AdaptiveFrictionParameters {
-    pub model_time_constant_s: f64,
-    pub adaptation_gain_per_m_s: f64,
-    pub compensation_max: f64,
-    pub error_deadband_m: f64,
-    pub model_deadband_m: f64,
-    pub settled_band_m: f64,
-}
 
 /// The windows of `[axis.parameter_estimation]`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -66,7 +56,8 @@ pub struct ScheduleParameters {
 /// What an axis has of the intelligent sections.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct IntelligenceParameters {
-    pub adaptive_friction: Option<AdaptiveFrictionParameters>,
+    /// `[axis.adaptive_friction]`: its entries, as declared.
+    pub adaptive_friction: Option<AdaptiveFrictionSection>,
     /// `[axis.observer]`: its writable thresholds become entries, as declared.
     pub observer: Option<ObserverSection>,
     pub estimation: Option<EstimationParameters>,
@@ -137,8 +128,9 @@ const UP_NAMES: [&str; MAX_SCHEDULE_POINTS] = [
 const POSITIVE_MIN: f64 = 1e-12;
 
 /// The entries of a declared section: its parameters writable in pre-operational, with the
-/// declared unit, range and line of documentation, in declaration order.
-fn declared_entries<S: Declared>(section: &S) -> Vec<EntrySpec> {
+/// declared unit (the axis' command unit where declared so), range and line of documentation,
+/// in declaration order.
+fn declared_entries<S: Declared>(section: &S, command_unit: &'static str) -> Vec<EntrySpec> {
     S::PARAMS
         .iter()
         .filter(|p| p.access == ParamAccess::PreOperational)
@@ -153,7 +145,12 @@ fn declared_entries<S: Declared>(section: &S) -> Vec<EntrySpec> {
                 ),
                 Kind::Array => return None,
             };
-            Some(e.unit(p.unit).doc(p.doc))
+            let unit = if p.unit == COMMAND_UNIT {
+                command_unit
+            } else {
+                p.unit
+            };
+            Some(e.unit(unit).doc(p.doc))
         })
         .collect()
 }
@@ -172,28 +169,7 @@ pub fn intelligence_objects(
             at(ADAPTIVE_FRICTION),
             format!("axis{i}_adaptive_friction"),
             axis,
-            vec![
-                EntrySpec::rw_preop("model_time_constant_s", a.model_time_constant_s)
-                    .unit("s")
-                    .between(POSITIVE_MIN, 1e3)
-                    .doc("T_M of the reference model y_M"),
-                EntrySpec::rw_preop("adaptation_gain_per_m_s", a.adaptation_gain_per_m_s)
-                    .between(0.0, 1e9)
-                    .doc("gamma: compensation change per m of model deviation per s"),
-                EntrySpec::rw_preop("compensation_max", a.compensation_max)
-                    .unit(command_unit)
-                    .between(0.0, 1e3)
-                    .doc("largest U_comp per direction"),
-                EntrySpec::rw_preop("error_deadband_m", a.error_deadband_m)
-                    .unit("m")
-                    .between(0.0, 1.0),
-                EntrySpec::rw_preop("model_deadband_m", a.model_deadband_m)
-                    .unit("m")
-                    .between(0.0, 1.0),
-                EntrySpec::rw_preop("settled_band_m", a.settled_band_m)
-                    .unit("m")
-                    .between(POSITIVE_MIN, 1.0),
-            ],
+            declared_entries(a, command_unit),
         );
     }
     if let Some(o) = &p.observer {
@@ -201,7 +177,7 @@ pub fn intelligence_objects(
             at(OBSERVER),
             format!("axis{i}_observer"),
             axis,
-            declared_entries(o),
+            declared_entries(o, command_unit),
         );
     }
     if let Some(e) = &p.estimation {
