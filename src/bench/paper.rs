@@ -647,21 +647,23 @@ pub struct FrictionRace {
 pub fn solenoid_observer_config() -> ObserverConfig {
     ObserverConfig {
         period_s: SOLENOID_PERIOD_S,
-        mass_kg: 0.4956,
-        damping_n_s_per_m: 21.85,
-        spring_n_per_m: 1650.0,
-        force_constant_n_per_a: 16.3,
-        current_gain_a_per_v: 0.1,
-        current_time_constant_s: 0.00859,
-        poles: [0.6, 0.65, 0.7, 0.75],
-        residual_max_m: 20e-6,
-        moving_speed_m_per_s: 1.5e-3,
-        warmup_samples: 1600,
-        learn_samples: 1500,
-        band_sigmas: 5.0,
-        band_min_halfwidth_m: 15e-6,
-        smoothing_time_constant_s: 0.05,
-        persistence_samples: 40,
+        params: crate::supervise::ObserverSection {
+            mass_kg: 0.4956,
+            damping_n_s_per_m: 21.85,
+            spring_n_per_m: 1650.0,
+            force_constant_n_per_a: 16.3,
+            current_gain_a_per_v: 0.1,
+            current_time_constant_s: 0.00859,
+            poles: [0.6, 0.65, 0.7, 0.75],
+            residual_max_m: 20e-6,
+            moving_speed_m_per_s: 1.5e-3,
+            warmup_s: 4.0,
+            learn_samples: 1500,
+            band_sigmas: 5.0,
+            band_min_halfwidth_m: 15e-6,
+            smoothing_time_constant_s: 0.05,
+            persistence_samples: 40,
+        },
     }
 }
 

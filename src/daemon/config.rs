@@ -1178,23 +1178,7 @@ impl AxisConfig {
         let o = self.observer.as_ref()?;
         Some(ObserverConfig {
             period_s,
-            mass_kg: o.mass_kg,
-            damping_n_s_per_m: o.damping_n_s_per_m,
-            spring_n_per_m: o.spring_n_per_m,
-            force_constant_n_per_a: o.force_constant_n_per_a,
-            current_gain_a_per_v: o.current_gain_a_per_v,
-            current_time_constant_s: o.current_time_constant_s,
-            poles: o.poles,
-            residual_max_m: o.residual_max_m,
-            moving_speed_m_per_s: o.moving_speed_m_per_s,
-            warmup_samples: (o.warmup_s / period_s)
-                .round()
-                .clamp(0.0, f64::from(u32::MAX)) as u32,
-            learn_samples: o.learn_samples,
-            band_sigmas: o.band_sigmas,
-            band_min_halfwidth_m: o.band_min_halfwidth_m,
-            smoothing_time_constant_s: o.smoothing_time_constant_s,
-            persistence_samples: o.persistence_samples,
+            params: o.clone(),
         })
     }
 

@@ -17,38 +17,17 @@
 
 use nalgebra::{DMatrix, Matrix4, Vector4};
 
+use super::ObserverSection;
 use crate::param::ParamError;
 
 /// Plant parameters and design of [`DisturbanceObserver`].
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ObserverConfig {
     /// `T_0` (s).
     pub period_s: f64,
-    /// `m` (kg), `d` (N·s/m), `c` (N/m).
-    pub mass_kg: f64,
-    pub damping_n_s_per_m: f64,
-    pub spring_n_per_m: f64,
-    /// `K_Mag` (N/A), `K_I` (A/V), `T_I` (s).
-    pub force_constant_n_per_a: f64,
-    pub current_gain_a_per_v: f64,
-    pub current_time_constant_s: f64,
-    /// Wanted observer poles (discrete, real, inside the unit circle).
-    pub poles: [f64; 4],
-    /// `|e|` below this counts as a small residual (m).
-    pub residual_max_m: f64,
-    /// `|Ŷ'|` above this counts as moving (m/s).
-    pub moving_speed_m_per_s: f64,
-    /// Samples after the start before anything is learned or compared (start-up transient).
-    pub warmup_samples: u32,
-    /// Learning: samples per direction before the band is fixed.
-    pub learn_samples: u32,
-    /// Band half-width: `max(k σ, w_min)` around the learned mean.
-    pub band_sigmas: f64,
-    pub band_min_halfwidth_m: f64,
-    /// Time constant of the `x4` smoothing used for the comparison (s).
-    pub smoothing_time_constant_s: f64,
-    /// Consecutive compared samples outside the band before the symptom is set.
-    pub persistence_samples: u32,
+    /// `[axis.observer]` as declared: the model `m`, `d`, `c`, `K_Mag`, `K_I`, `T_I`, the poles,
+    /// the residual and speed thresholds, and the learning of the `x4` bands.
+    pub params: ObserverSection,
 }
 
 /// The position of `x4` relative to its band.
@@ -95,6 +74,8 @@ struct DirectionBand {
 #[derive(Debug, Clone)]
 pub struct DisturbanceObserver {
     config: ObserverConfig,
+    /// `warmup_s` in periods.
+    warmup_samples: u32,
     a: Matrix4<f64>,
     b: Vector4<f64>,
     h: Vector4<f64>,
@@ -104,7 +85,8 @@ pub struct DisturbanceObserver {
     bands: [DirectionBand; 2],
 }
 
-fn discretise(c: &ObserverConfig) -> (Matrix4<f64>, Vector4<f64>) {
+fn discretise(config: &ObserverConfig) -> (Matrix4<f64>, Vector4<f64>) {
+    let c = &config.params;
     let (m, d, k) = (c.mass_kg, c.damping_n_s_per_m, c.spring_n_per_m);
     let mut ac = DMatrix::<f64>::zeros(5, 5);
     ac[(0, 1)] = 1.0;
@@ -114,7 +96,7 @@ fn discretise(c: &ObserverConfig) -> (Matrix4<f64>, Vector4<f64>) {
     ac[(1, 3)] = k / m;
     ac[(2, 2)] = -1.0 / c.current_time_constant_s;
     ac[(2, 4)] = c.current_gain_a_per_v / c.current_time_constant_s;
-    let e = (ac * c.period_s).exp();
+    let e = (ac * config.period_s).exp();
     let a = Matrix4::from_fn(|i, j| e[(i, j)]);
     let b = Vector4::from_fn(|i, _| e[(i, 4)]);
     (a, b)
@@ -125,27 +107,26 @@ impl DisturbanceObserver {
     /// unobservable model.
     pub fn new(config: ObserverConfig) -> Result<Self, ParamError> {
         use crate::param::ParamError as E;
+        let period_s = config.period_s;
+        let p = &config.params;
         for (name, v) in [
-            ("period_s", config.period_s),
-            ("mass_kg", config.mass_kg),
-            ("spring_n_per_m", config.spring_n_per_m),
-            ("force_constant_n_per_a", config.force_constant_n_per_a),
-            ("current_gain_a_per_v", config.current_gain_a_per_v),
-            ("current_time_constant_s", config.current_time_constant_s),
-            ("residual_max_m", config.residual_max_m),
-            (
-                "smoothing_time_constant_s",
-                config.smoothing_time_constant_s,
-            ),
+            ("period_s", period_s),
+            ("mass_kg", p.mass_kg),
+            ("spring_n_per_m", p.spring_n_per_m),
+            ("force_constant_n_per_a", p.force_constant_n_per_a),
+            ("current_gain_a_per_v", p.current_gain_a_per_v),
+            ("current_time_constant_s", p.current_time_constant_s),
+            ("residual_max_m", p.residual_max_m),
+            ("smoothing_time_constant_s", p.smoothing_time_constant_s),
         ] {
             if !(v > 0.0 && v.is_finite()) {
                 return Err(E::new(name, format!("must be finite and > 0, got {v}")));
             }
         }
-        if config.damping_n_s_per_m.is_nan() || config.damping_n_s_per_m < 0.0 {
+        if p.damping_n_s_per_m.is_nan() || p.damping_n_s_per_m < 0.0 {
             return Err(E::new("damping_n_s_per_m", "must be >= 0"));
         }
-        if config.poles.iter().any(|p| p.is_nan() || p.abs() >= 1.0) {
+        if p.poles.iter().any(|x| x.is_nan() || x.abs() >= 1.0) {
             return Err(E::new("poles", "must lie inside the unit circle"));
         }
         let (a, b) = discretise(&config);
@@ -158,15 +139,20 @@ impl DisturbanceObserver {
             .try_inverse()
             .ok_or_else(|| E::new("observer", "model is not observable from the position"))?;
         let mut phi: Matrix4<f64> = Matrix4::identity();
-        for &p in &config.poles {
+        for &p in &config.params.poles {
             phi *= a - Matrix4::identity() * p;
         }
         let h: Vector4<f64> = phi * o_inv * Vector4::new(0.0, 0.0, 0.0, 1.0);
         if h.iter().any(|v| !v.is_finite()) {
             return Err(E::new("poles", "pole placement failed"));
         }
+        // Samples after the start before anything is learned or compared (start-up transient).
+        let warmup_samples = (config.params.warmup_s / period_s)
+            .round()
+            .clamp(0.0, f64::from(u32::MAX)) as u32;
         Ok(Self {
             config,
+            warmup_samples,
             a,
             b,
             h,
@@ -195,7 +181,7 @@ impl DisturbanceObserver {
 
     /// Learned bands `(low, high)` of `x4+` and `x4-`, once learned.
     pub fn bands(&self) -> Option<[(f64, f64); 2]> {
-        let n = self.config.learn_samples;
+        let n = self.config.params.learn_samples;
         (self.bands[0].n >= n && self.bands[1].n >= n).then(|| {
             [
                 (self.bands[0].low, self.bands[0].high),
@@ -210,7 +196,7 @@ impl DisturbanceObserver {
         for (band, (low, high)) in self.bands.iter_mut().zip(bands) {
             if low.is_finite() && high.is_finite() && low <= high {
                 *band = DirectionBand {
-                    n: self.config.learn_samples,
+                    n: self.config.params.learn_samples,
                     mean: 0.5 * (low + high),
                     low,
                     high,
@@ -227,7 +213,8 @@ impl DisturbanceObserver {
 
     /// One step with the measured position `y(k)` and the voltage `u(k)` applied in this period.
     pub fn step(&mut self, position: f64, command: f64) -> ObserverOutput {
-        let c = self.config;
+        let c = &self.config.params;
+        let period_s = self.config.period_s;
         if !self.started && position.is_finite() {
             // Start at rest at the measured position, disturbance absorbing the offset.
             let i0 = c.current_gain_a_per_v * command;
@@ -240,10 +227,10 @@ impl DisturbanceObserver {
         if e.is_finite() && command.is_finite() {
             self.x = self.a * self.x + self.b * command + self.h * e;
         }
-        let alpha = c.period_s / (c.smoothing_time_constant_s + c.period_s);
+        let alpha = period_s / (c.smoothing_time_constant_s + period_s);
         let speed = state[1];
         self.samples = self.samples.saturating_add(1);
-        let quiet = self.samples > c.warmup_samples && e.abs() <= c.residual_max_m;
+        let quiet = self.samples > self.warmup_samples && e.abs() <= c.residual_max_m;
         let dir = if !quiet {
             None
         } else if speed > c.moving_speed_m_per_s {
@@ -313,21 +300,23 @@ mod tests {
     fn cfg() -> ObserverConfig {
         ObserverConfig {
             period_s: 0.0025,
-            mass_kg: 0.4956,
-            damping_n_s_per_m: 20.0,
-            spring_n_per_m: 1650.0,
-            force_constant_n_per_a: 16.3,
-            current_gain_a_per_v: 0.1,
-            current_time_constant_s: 0.00859,
-            poles: [0.6, 0.6, 0.7, 0.7],
-            residual_max_m: 1e-4,
-            moving_speed_m_per_s: 1e-3,
-            warmup_samples: 0,
-            learn_samples: 50,
-            band_sigmas: 4.0,
-            band_min_halfwidth_m: 2e-5,
-            smoothing_time_constant_s: 0.01,
-            persistence_samples: 5,
+            params: ObserverSection {
+                mass_kg: 0.4956,
+                damping_n_s_per_m: 20.0,
+                spring_n_per_m: 1650.0,
+                force_constant_n_per_a: 16.3,
+                current_gain_a_per_v: 0.1,
+                current_time_constant_s: 0.00859,
+                poles: [0.6, 0.6, 0.7, 0.7],
+                residual_max_m: 1e-4,
+                moving_speed_m_per_s: 1e-3,
+                warmup_s: 0.0,
+                learn_samples: 50,
+                band_sigmas: 4.0,
+                band_min_halfwidth_m: 2e-5,
+                smoothing_time_constant_s: 0.01,
+                persistence_samples: 5,
+            },
         }
     }
 
