@@ -18,6 +18,7 @@ pub use crate::recording::record;
 pub mod record_dir;
 pub mod recorder;
 pub mod rt;
+pub mod slot;
 pub mod state;
 
 pub use config::Config;

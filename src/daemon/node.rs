@@ -7,6 +7,7 @@ use super::dictionary::{self, LiveObjects, LoopFigures, WriteEffect};
 use super::profile_link::{NodeLayout, ProfileLink, Received};
 use super::reconfigure::{build_parameters, BuildInput, BuildKind, Built};
 use super::record::{CycleRecord, Event, Record};
+use super::slot::{Axes, AxesMut, AxisSlot};
 use crate::bus::{BusFault, Frame};
 use crate::canopen::od::PendingWrite;
 use crate::canopen::{
@@ -94,14 +95,11 @@ const UNKNOWN_LOG_INTERVAL_S: f64 = 1.0;
 pub struct ControllerNode {
     node_id: u8,
     state: NmtState,
-    axes: Vec<Axis>,
+    /// One slot per axis: the axis and what the node keeps of it between cycles.
+    slots: Vec<AxisSlot>,
     sync: SyncCounter,
     heartbeat_every: u32,
     status_every: u32,
-    last_fault_state: Vec<(FaultState, u16, u16)>,
-    /// Where each axis' supply was against its scheduled band last cycle.
-    last_supply_band: Vec<BandStatus>,
-    announce_reset: Vec<bool>,
     counters: NodeCounters,
     latency_max_s: f64,
     last_unknown_log_s: f64,
@@ -116,8 +114,6 @@ pub struct ControllerNode {
     live: LiveObjects,
     /// SDO answers, sent with the cycle's frames (one request, one answer: a few suffice).
     sdo_out: [Option<Frame>; 4],
-    axis_faults_raised: Vec<u64>,
-    axis_sensor_missed: Vec<u64>,
     /// Release-to-command latency over the current status period, for its p99.
     latency: Histogram<u64>,
     wake_latency_max_s: f64,
@@ -129,8 +125,6 @@ pub struct ControllerNode {
     /// EMCY of a bus fault, sent with the next cycle's frames (once the bus carries them).
     pending_bus_emcy: Option<(BusFault, FaultState)>,
     last_bus_fault: Option<(BusFault, f64)>,
-    /// Per axis, the link to a standard (CiA 402/401) actuator node; `None` for ours.
-    links: Vec<Option<ProfileLink>>,
     /// The builder that makes new configurations off this thread ([`super::reconfigure`]);
     /// without one (tests, lock-step runs) the node builds at the boundary itself.
     builder: Option<SyncSender<BuildInput>>,
@@ -194,10 +188,11 @@ impl ControllerNode {
         let writable = od.entries().iter().filter(|e| e.access.writable()).count();
         // The layout the daemon gives standard nodes at start-up; the runtime replaces it with
         // the one it configured and checked ([`ControllerNode::set_node_layout`]).
-        let links = config
+        let slots = config
             .axis
             .iter()
-            .map(|a| {
+            .zip(axes)
+            .map(|(a, axis)| {
                 let layout = NodeLayout {
                     pdos: super::profile_config::desired_pdos(a),
                     rated_torque_nm: a
@@ -207,11 +202,11 @@ impl ControllerNode {
                         .unwrap_or(0.0),
                     error_code: 0,
                 };
-                ProfileLink::new(a, &layout)
+                AxisSlot::new(axis, ProfileLink::new(a, &layout))
             })
             .collect();
         Ok(Self {
-            links,
+            slots,
             builder: None,
             batch: Some(Vec::with_capacity(writable)),
             config: config.clone(),
@@ -219,8 +214,6 @@ impl ControllerNode {
             live,
             od,
             sdo_out: [None; 4],
-            axis_faults_raised: vec![0; axes.len()],
-            axis_sensor_missed: vec![0; axes.len()],
             latency: Histogram::new_with_bounds(1, 10_000_000, 2)
                 .expect("constant, valid histogram bounds"),
             wake_latency_max_s: 0.0,
@@ -232,10 +225,6 @@ impl ControllerNode {
             last_bus_fault: None,
             node_id: config.node.node_id,
             state: NmtState::Initialising,
-            last_fault_state: vec![(FaultState::Ok, 0, 0); axes.len()],
-            last_supply_band: vec![BandStatus::Inside; axes.len()],
-            announce_reset: vec![false; axes.len()],
-            axes,
             sync: SyncCounter::default(),
             heartbeat_every: cycles(config.node.heartbeat_period_s, period_s),
             status_every: cycles(config.node.status_period_s, period_s),
@@ -251,14 +240,14 @@ impl ControllerNode {
     /// The layout a standard node of axis `index` was given and checked at start-up
     /// ([`super::profile_setup::configure`]).
     pub fn set_node_layout(&mut self, index: usize, layout: &NodeLayout) {
-        if let (Some(slot), Some(axis)) = (self.links.get_mut(index), self.config.axis.get(index)) {
-            *slot = ProfileLink::new(axis, layout);
+        if let (Some(slot), Some(axis)) = (self.slots.get_mut(index), self.config.axis.get(index)) {
+            slot.link = ProfileLink::new(axis, layout);
         }
     }
 
     /// The link to axis `index`'s standard node, if it has one.
     pub fn profile_link(&self, index: usize) -> Option<&ProfileLink> {
-        self.links.get(index).and_then(Option::as_ref)
+        self.slots.get(index).and_then(|s| s.link.as_ref())
     }
 
     /// Give the node a nanosecond clock, so it times each stage of the cycle.
@@ -282,13 +271,19 @@ impl ControllerNode {
         &mut self.counters
     }
 
-    pub fn axes(&self) -> &[Axis] {
-        &self.axes
+    /// The axes, in configuration order.
+    pub fn axes(&self) -> Axes<'_> {
+        Axes(&self.slots)
+    }
+
+    /// Axis `index` (configuration order).
+    pub fn axis(&self, index: usize) -> Option<&Axis> {
+        self.slots.get(index).map(|s| &s.axis)
     }
 
     /// The axes, to give them what they learned before (a state file).
-    pub fn axes_mut(&mut self) -> &mut [Axis] {
-        &mut self.axes
+    pub fn axes_mut(&mut self) -> AxesMut<'_> {
+        AxesMut(&mut self.slots)
     }
 
     /// A bus fault: counted, recorded with its cause, announced by EMCY as soon as frames go
@@ -362,8 +357,8 @@ impl ControllerNode {
     /// The bus carries frames again: the EMCY naming the outage goes out with this cycle.
     pub fn bus_restored(&mut self, now_s: f64, record: &mut dyn FnMut(Record)) {
         if let Some(loss) = self.bus_loss.take() {
-            for axis in self.axes.iter_mut() {
-                axis.on_bus_restored(now_s);
+            for slot in self.slots.iter_mut() {
+                slot.axis.on_bus_restored(now_s);
             }
             record(Record::Event(Event::BusRestored {
                 t_s: now_s,
@@ -377,7 +372,7 @@ impl ControllerNode {
     /// Boot: announce ourselves, start the actuator nodes, go operational (we are the NMT master).
     pub fn boot(&mut self, send: &mut dyn FnMut(&Frame), record: &mut dyn FnMut(Record)) {
         send(&encode_heartbeat(self.node_id, NmtState::Initialising));
-        for axis in &self.axes {
+        for axis in self.axes().iter() {
             if axis.start_node {
                 send(&NmtCommand::Start.encode(axis.actuator_node_id));
             }
@@ -391,11 +386,11 @@ impl ControllerNode {
 
     /// Open a cycle: from now on only sensor frames answering this cycle's SYNC count as fresh.
     pub fn begin_cycle(&mut self) {
-        for axis in self.axes.iter_mut() {
-            axis.begin_cycle();
-        }
-        for link in self.links.iter_mut().flatten() {
-            link.begin_cycle();
+        for slot in self.slots.iter_mut() {
+            slot.axis.begin_cycle();
+            if let Some(link) = slot.link.as_mut() {
+                link.begin_cycle();
+            }
         }
     }
 
@@ -406,7 +401,7 @@ impl ControllerNode {
 
     /// True once every axis has its sensor frame for this cycle.
     pub fn all_sensors_in(&self) -> bool {
-        self.axes.iter().all(Axis::has_fresh_sensor)
+        self.axes().iter().all(Axis::has_fresh_sensor)
     }
 
     /// Take one received frame.
@@ -473,7 +468,7 @@ impl ControllerNode {
             match decode_heartbeat(frame) {
                 Ok((node, state)) => {
                     if let Some(index) = self.axis_index(node) {
-                        let axis = &mut self.axes[index];
+                        let axis = &mut self.slots[index].axis;
                         axis.on_heartbeat(state, now_s);
                         if state == NmtState::Initialising {
                             record(Record::Event(Event::NodeState {
@@ -492,14 +487,14 @@ impl ControllerNode {
             }
             return;
         }
-        for index in 0..self.links.len() {
-            let Some(link) = self.links[index].as_mut() else {
+        for slot in self.slots.iter_mut() {
+            let Some(link) = slot.link.as_mut() else {
                 continue;
             };
             match link.handle(frame) {
                 Received::NotMine => continue,
                 Received::Taken => {}
-                Received::Complete(sensor) => self.axes[index].on_sensor(sensor),
+                Received::Complete(sensor) => slot.axis.on_sensor(sensor),
                 Received::Malformed { expected } => {
                     self.counters.frames_malformed += 1;
                     record(Record::Event(Event::Malformed {
@@ -516,21 +511,23 @@ impl ControllerNode {
             }
             return;
         }
-        for index in 0..self.axes.len() {
-            if self.links[index].is_some() {
+        for index in 0..self.slots.len() {
+            if self.slots[index].link.is_some() {
                 continue;
             }
-            let node = self.axes[index].actuator_node_id;
+            let node = self.slots[index].axis.actuator_node_id;
             if id == messages::SENSOR.cob_id(node) {
                 match SensorPdo::decode(frame) {
-                    Ok(s) => self.axes[index].on_sensor(s),
+                    Ok(s) => self.slots[index].axis.on_sensor(s),
                     Err(e) => malformed(self, e),
                 }
                 return;
             }
             if id == messages::SUPPLY_PRESSURE.cob_id(node) {
                 match SupplyPressurePdo::decode(frame) {
-                    Ok(p) => self.axes[index].on_supply_pressure(p.supply_pressure_pa),
+                    Ok(p) => self.slots[index]
+                        .axis
+                        .on_supply_pressure(p.supply_pressure_pa),
                     Err(e) => malformed(self, e),
                 }
                 return;
@@ -557,11 +554,14 @@ impl ControllerNode {
     }
 
     fn axis_index(&self, node: u8) -> Option<usize> {
-        self.axes.iter().position(|a| a.actuator_node_id == node)
+        self.axes().iter().position(|a| a.actuator_node_id == node)
     }
 
     fn axis_mut(&mut self, node: u8) -> Option<&mut Axis> {
-        self.axes.iter_mut().find(|a| a.actuator_node_id == node)
+        self.slots
+            .iter_mut()
+            .map(|s| &mut s.axis)
+            .find(|a| a.actuator_node_id == node)
     }
 
     fn on_nmt(&mut self, cmd: NmtCommand, now_s: f64, record: &mut dyn FnMut(Record)) {
@@ -591,9 +591,10 @@ impl ControllerNode {
     }
 
     fn reset_faults(&mut self, axis_node: u8, now_s: f64, record: &mut dyn FnMut(Record)) {
-        for (axis, link) in self.axes.iter_mut().zip(self.links.iter_mut()) {
+        for slot in self.slots.iter_mut() {
+            let axis = &mut slot.axis;
             if axis_node == 0 || axis.actuator_node_id == axis_node {
-                if let Some(link) = link.as_mut() {
+                if let Some(link) = slot.link.as_mut() {
                     // The drive's own fault is reset through its state machine.
                     link.request_fault_reset();
                     axis.set_drive_fault(link.drive_fault());
@@ -603,14 +604,10 @@ impl ControllerNode {
                     t_s: now_s,
                     axis_node_id: axis.actuator_node_id,
                 }));
-            }
-        }
-        // An EMCY "error reset" goes out with the next cycle's frames for each axis that had faults.
-        for (index, axis) in self.axes.iter().enumerate() {
-            if (axis_node == 0 || axis.actuator_node_id == axis_node)
-                && self.last_fault_state[index].0 != FaultState::Ok
-            {
-                self.announce_reset[index] = true;
+                // An EMCY "error reset" goes out with the next cycle's frames if it had faults.
+                if slot.last_fault_state.0 != FaultState::Ok {
+                    slot.announce_reset = true;
+                }
             }
         }
     }
@@ -654,10 +651,11 @@ impl ControllerNode {
         let operational = self.state == NmtState::Operational;
         let sync_counter = self.sync.value();
         let status_due = cycle % u64::from(self.status_every) == 0;
-        for index in 0..self.axes.len() {
+        for index in 0..self.slots.len() {
             let mut timer = StageTimer::start(self.stage_clock);
-            let axis = &mut self.axes[index];
-            if let Some(link) = &self.links[index] {
+            let slot = &mut self.slots[index];
+            let axis = &mut slot.axis;
+            if let Some(link) = &slot.link {
                 axis.set_drive_fault(link.drive_fault());
             }
             axis.schedule(now_s);
@@ -670,16 +668,15 @@ impl ControllerNode {
             timer.mark(Stage::Supervision);
             let step = axis.control(supervision);
             timer.mark(Stage::Control);
-            let axis = &self.axes[index];
-            let node = axis.actuator_node_id;
+            let node = slot.axis.actuator_node_id;
             if !step.sensor_fresh {
                 self.counters.sensor_missed += 1;
-                self.axis_sensor_missed[index] += 1;
+                slot.sensor_missed += 1;
             }
-            if let (true, Some(link)) = (operational, self.links[index].as_mut()) {
+            if let (true, Some(link)) = (operational, slot.link.as_mut()) {
                 link.send_command(step.command, send);
             } else if operational {
-                let command = match axis.command_kind {
+                let command = match slot.axis.command_kind {
                     CommandKind::Duty => CommandPdo {
                         voltage_v: 0.0,
                         duty: step.command,
@@ -695,11 +692,11 @@ impl ControllerNode {
             }
             for kind in step.supervision.raised.iter() {
                 self.counters.faults_raised += 1;
-                self.axis_faults_raised[index] += 1;
+                slot.faults_raised += 1;
                 let mut emcy = step.emcy(Emcy::raised(node, kind, step.supervision.latched));
                 // A drive that went to fault: its own error code (603Fh, from its EMCY).
                 if let (crate::supervise::FaultKind::NodeState, Some(code)) =
-                    (kind, self.axes[index].drive_fault())
+                    (kind, slot.axis.drive_fault())
                 {
                     emcy.error_code = code;
                 }
@@ -713,7 +710,7 @@ impl ControllerNode {
             }
             for fault in step.supervised_raised() {
                 self.counters.faults_raised += 1;
-                self.axis_faults_raised[index] += 1;
+                slot.faults_raised += 1;
                 let emcy = step.emcy(Emcy::supervised(node, fault, step.supervision.latched));
                 send(&emcy.encode(self.node_id));
                 record(Record::Event(Event::Diagnosed {
@@ -725,8 +722,8 @@ impl ControllerNode {
                     cycle,
                 }));
             }
-            if step.supply_band != self.last_supply_band[index] {
-                self.last_supply_band[index] = step.supply_band;
+            if step.supply_band != slot.last_supply_band {
+                slot.last_supply_band = step.supply_band;
                 match step.supply_band {
                     // Back inside: "error reset" when nothing else is active.
                     BandStatus::Inside => {
@@ -742,7 +739,7 @@ impl ControllerNode {
                     band => {
                         let emcy = step.emcy(Emcy::supply_band(
                             node,
-                            axis.supply_band_is_pressure(),
+                            slot.axis.supply_band_is_pressure(),
                             band == BandStatus::Below,
                             step.supervision.latched,
                         ));
@@ -755,8 +752,8 @@ impl ControllerNode {
                 step.supervision.latched.0,
                 step.model.machine.latched.0,
             );
-            let last = self.last_fault_state[index];
-            if std::mem::take(&mut self.announce_reset[index]) {
+            let last = slot.last_fault_state;
+            if std::mem::take(&mut slot.announce_reset) {
                 send(&Emcy::reset(node).encode(self.node_id));
             }
             if operational && (status_due || now_state != last) {
@@ -768,14 +765,14 @@ impl ControllerNode {
                 send(&fault_state.encode(self.node_id));
                 send(&step.fault_diagnosis(node).encode(self.node_id));
             }
-            self.last_fault_state[index] = now_state;
+            slot.last_fault_state = now_state;
             if operational && status_due {
                 send(&step.tuned_parameters(node).encode(self.node_id));
                 send(&step.tuned_gains(node).encode(self.node_id));
             }
             timer.mark(Stage::EncodeSend);
-            let mut rec = cycle_record(now_s, cycle, node, axis, &step, timing);
-            if let Some(sw) = self.links[index].as_ref().and_then(ProfileLink::statusword) {
+            let mut rec = cycle_record(now_s, cycle, node, &slot.axis, &step, timing);
+            if let Some(sw) = slot.link.as_ref().and_then(ProfileLink::statusword) {
                 rec.drive_statusword = sw;
             }
             rec.stage_ns = timer.stage_ns;
@@ -784,10 +781,10 @@ impl ControllerNode {
                     &mut self.od,
                     index,
                     &rec,
-                    self.axis_faults_raised[index],
-                    self.axis_sensor_missed[index],
+                    slot.faults_raised,
+                    slot.sensor_missed,
                 );
-                let axis = &self.axes[index];
+                let axis = &slot.axis;
                 self.live.publish_diagnosis(
                     &mut self.od,
                     index,
@@ -846,9 +843,9 @@ impl ControllerNode {
         };
         // CiA 301 error register: bit 0 any error, bit 7 manufacturer-specific (timing).
         let any_fault = self
-            .last_fault_state
+            .slots
             .iter()
-            .any(|(state, _, _)| *state != FaultState::Ok);
+            .any(|s| s.last_fault_state.0 != FaultState::Ok);
         let error_register = u8::from(any_fault) | if warning { 0x80 } else { 0 };
         self.live.publish_loop(
             &mut self.od,
@@ -1001,12 +998,12 @@ impl ControllerNode {
     fn apply_effect(&mut self, effect: WriteEffect, now_s: f64, record: &mut dyn FnMut(Record)) {
         match effect {
             WriteEffect::Setpoint { axis, position } => {
-                if let Some(a) = self.axes.get_mut(axis) {
-                    a.set_setpoint(position);
+                if let Some(slot) = self.slots.get_mut(axis) {
+                    slot.axis.set_setpoint(position);
                 }
             }
             WriteEffect::FaultReset { axis } => {
-                if let Some(node) = self.axes.get(axis).map(|a| a.actuator_node_id) {
+                if let Some(node) = self.axis(axis).map(|a| a.actuator_node_id) {
                     self.reset_faults(node, now_s, record);
                 }
             }
@@ -1019,9 +1016,10 @@ impl ControllerNode {
 
     fn send_safe_commands(&mut self, send: &mut dyn FnMut(&Frame)) {
         let sync_counter = self.sync.value();
-        for (axis, link) in self.axes.iter().zip(self.links.iter_mut()) {
+        for slot in self.slots.iter_mut() {
+            let axis = &slot.axis;
             let safe = axis.safe_command();
-            if let Some(link) = link.as_mut() {
+            if let Some(link) = slot.link.as_mut() {
                 link.send_command(safe, send);
                 continue;
             }
@@ -1093,7 +1091,7 @@ impl ControllerNode {
             || old.bus != new.bus
             || old.cycle.period_s != new.cycle.period_s
             || !same_axes
-            || prepared.axes.len() != self.axes.len()
+            || prepared.axes.len() != self.slots.len()
         {
             record(Record::Event(Event::ReloadRefused {
                 t_s: now_s,
@@ -1103,10 +1101,11 @@ impl ControllerNode {
             return None;
         }
         let mut rebuilt = 0;
-        for i in 0..self.axes.len() {
+        for i in 0..self.slots.len() {
             if self.config.axis[i] != prepared.config.axis[i] {
-                std::mem::swap(&mut self.axes[i], &mut prepared.axes[i]);
-                self.axes[i].continue_from(&prepared.axes[i]);
+                let axis = &mut self.slots[i].axis;
+                std::mem::swap(axis, &mut prepared.axes[i]);
+                axis.continue_from(&prepared.axes[i]);
                 rebuilt += 1;
             }
         }
@@ -1131,12 +1130,12 @@ impl ControllerNode {
 
     /// Leave operation: every axis gets its safe command once.
     pub fn shutdown(&mut self, send: &mut dyn FnMut(&Frame)) {
-        for link in self.links.iter_mut().flatten() {
+        for link in self.slots.iter_mut().filter_map(|s| s.link.as_mut()) {
             // Power stage off (disable voltage): the drive holds no torque once we are gone.
             link.set_target(crate::device::profile::cia402::Target::Disabled);
         }
         self.send_safe_commands(send);
-        if self.links.iter().any(Option::is_some) {
+        if self.slots.iter().any(|s| s.link.is_some()) {
             // Synchronous RPDOs take effect at the next SYNC: give them one.
             send(&self.sync.encode());
         }
