@@ -18,6 +18,7 @@ use crate::control::{
 use crate::device::{
     Emcy, FaultDiagnosisPdo, FaultStatePdo, SensorPdo, TunedGainsPdo, TunedParametersPdo,
 };
+use crate::recording::Stage;
 use crate::supervise::{
     diagnose, symptoms, Band, DiagnosedFault, DisturbanceObserver, EstimatorHealth, FaultMachine,
     FaultMachineOutput, FaultState, FaultSymptomTable, LimitSupervisor, Limits, Nominal,
@@ -681,11 +682,23 @@ impl Axis {
 
     /// Run one cycle at `now_s` with whatever arrived since the last one.
     pub fn step(&mut self, now_s: f64) -> AxisStep {
+        self.step_marked(now_s, &mut |_| {})
+    }
+
+    /// [`Axis::step`], calling `mark` as each stage ends (the node times the stages with it):
+    /// the one place that says in which order the stages run.
+    pub fn step_marked(&mut self, now_s: f64, mark: &mut dyn FnMut(Stage)) -> AxisStep {
         self.schedule(now_s);
+        mark(Stage::Scheduling);
         self.estimate();
+        mark(Stage::Estimation);
         self.observe();
+        mark(Stage::Observer);
         let supervision = self.supervise(now_s);
-        self.control(supervision)
+        mark(Stage::Supervision);
+        let step = self.control(supervision);
+        mark(Stage::Control);
+        step
     }
 
     /// Stage "scheduling": setpoint schedule, reference ramp, freshness of the readings.

@@ -658,16 +658,7 @@ impl ControllerNode {
             if let Some(link) = &slot.link {
                 axis.set_drive_fault(link.drive_fault());
             }
-            axis.schedule(now_s);
-            timer.mark(Stage::Scheduling);
-            axis.estimate();
-            timer.mark(Stage::Estimation);
-            axis.observe();
-            timer.mark(Stage::Observer);
-            let supervision = axis.supervise(now_s);
-            timer.mark(Stage::Supervision);
-            let step = axis.control(supervision);
-            timer.mark(Stage::Control);
+            let step = axis.step_marked(now_s, &mut |stage| timer.mark(stage));
             let node = slot.axis.actuator_node_id;
             if !step.sensor_fresh {
                 self.counters.sensor_missed += 1;
