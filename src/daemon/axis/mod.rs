@@ -7,13 +7,15 @@
 //! [`Axis::new`]; the stages allocate nothing.
 
 use super::config::{cycles, AxisConfig, CommandKind, ScheduleVariable, SetpointStep};
-use super::learned::{AxisLearned, OperatingPointMemory};
+mod friction;
+
+use super::learned::AxisLearned;
 use crate::canopen::NmtState;
 use crate::control::robust::StateSpaceController;
 use crate::control::{
-    AdaptiveFriction, BandStatus, ControllerError, DiscreteController, Dither, FrictionFeedForward,
-    GainSchedule, GainSource, LearnedTable, LinearController, NonlinearCorrection, OperatingPoint,
-    ParamError, PneumaticAdaptive, PneumaticStep, SupplyBand,
+    BandStatus, ControllerError, DiscreteController, GainSchedule, GainSource, LearnedTable,
+    LinearController, NonlinearCorrection, ParamError, PneumaticAdaptive, PneumaticStep,
+    SupplyBand,
 };
 use crate::device::{
     Emcy, FaultDiagnosisPdo, FaultStatePdo, SensorPdo, TunedGainsPdo, TunedParametersPdo,
@@ -26,6 +28,7 @@ use crate::supervise::{
     SupervisedFaults, SupervisionInput, SupervisionLevel, SupervisionOutput, Symptom,
     SymptomThresholds, PHYSICAL_PARAMS,
 };
+use friction::FrictionCompensation;
 
 /// What the axis has learned or runs with this cycle (the tuned-parameter frames).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -271,10 +274,8 @@ pub struct Axis {
     pub start_node: bool,
     safe_command: f64,
     controller: LinearController,
-    friction: Option<FrictionFeedForward>,
-    adaptive_friction: Option<AdaptiveFriction>,
-    operating_points: Option<OperatingPointMemory>,
-    dither: Option<Dither>,
+    /// Friction compensation (feed-forward or adaptive), its learned table and the dither.
+    friction: FrictionCompensation,
     correction: Option<NonlinearCorrection>,
     gain_schedule: Option<(ScheduleVariable, GainSchedule)>,
     pneumatic: Option<PneumaticAdaptive>,
@@ -313,8 +314,6 @@ pub struct Axis {
     /// The error code of a CiA 402 drive in fault: the node is out of operation.
     drive_fault: Option<u16>,
     last_command: f64,
-    last_compensation: f64,
-    last_dither: f64,
 }
 
 impl Axis {
@@ -333,15 +332,7 @@ impl Axis {
             )?)),
         };
         controller.preset(cfg.safe_command);
-        let friction = cfg.friction_compensation.as_ref().map(|f| {
-            FrictionFeedForward::from_forces(
-                f.alpha,
-                f.coulomb_pos_n,
-                f.coulomb_neg_n,
-                f.force_gain_n_per_command,
-                f.deadband_m,
-            )
-        });
+        let friction = FrictionCompensation::new(cfg, period_s).map_err(unvalidated)?;
         let l = &cfg.limits;
         let band = |lo: Option<f64>, hi: Option<f64>, time_s: f64| {
             if lo.is_none() && hi.is_none() {
@@ -379,21 +370,6 @@ impl Axis {
             sensor_timeout_cycles: cycles(l.sensor_timeout_s, period_s),
             heartbeat_timeout_s: l.heartbeat_timeout_s,
         };
-        let adaptive_friction = cfg
-            .adaptive_friction_config(period_s)
-            .map(AdaptiveFriction::new)
-            .transpose()
-            .map_err(unvalidated)?;
-        let operating_points = cfg
-            .learned_table_config(period_s)
-            .map(|(c, every)| LearnedTable::new(c).map(|t| OperatingPointMemory::new(t, every)))
-            .transpose()
-            .map_err(unvalidated)?;
-        let dither = cfg
-            .dither_config(period_s)
-            .map(Dither::new)
-            .transpose()
-            .map_err(unvalidated)?;
         let correction = cfg
             .correction_config()
             .map(NonlinearCorrection::new)
@@ -480,9 +456,6 @@ impl Axis {
             safe_command: cfg.safe_command,
             controller,
             friction,
-            adaptive_friction,
-            operating_points,
-            dither,
             correction,
             gain_schedule,
             pneumatic,
@@ -526,8 +499,6 @@ impl Axis {
             drive_fault: None,
             node_was_operational: false,
             last_command: cfg.safe_command,
-            last_compensation: 0.0,
-            last_dither: 0.0,
         })
     }
 
@@ -603,9 +574,7 @@ impl Axis {
         self.supervisor.keep_latched(old.supervisor.latched());
         // What the axis learned is kept: a new parameter is no reason to forget the friction.
         self.restore_learned(&old.learned());
-        if let (Some(new), Some(old)) = (self.operating_points.as_mut(), &old.operating_points) {
-            new.restore(old.table());
-        }
+        self.friction.continue_from(&old.friction);
         if old.supervisor.latched().is_empty() {
             self.last_command = old.last_command;
             self.controller.preset(old.last_command);
@@ -615,10 +584,7 @@ impl Axis {
     /// What this axis has learned so far (the fixed-size part; see [`Axis::learned_table`]).
     pub fn learned(&self) -> AxisLearned {
         AxisLearned {
-            friction_compensation: self
-                .adaptive_friction
-                .as_ref()
-                .map(AdaptiveFriction::compensation_values),
+            friction_compensation: self.friction.learned(),
             observer_bands: self.observer.as_ref().and_then(DisturbanceObserver::bands),
             nominal: self.estimation.as_ref().and_then(|e| e.nominal),
         }
@@ -627,11 +593,8 @@ impl Axis {
     /// Start from values learned before (a state file, or the axis this one replaces). Values
     /// this axis has no algorithm for are ignored; a nominal set in the configuration wins.
     pub fn restore_learned(&mut self, learned: &AxisLearned) {
-        if let (Some(a), Some((pos, neg))) = (
-            self.adaptive_friction.as_mut(),
-            learned.friction_compensation,
-        ) {
-            a.set_compensation_values(pos, neg);
+        if let Some(levels) = learned.friction_compensation {
+            self.friction.restore(levels);
         }
         if let (Some(o), Some(bands)) = (self.observer.as_mut(), learned.observer_bands) {
             o.restore_bands(bands);
@@ -650,14 +613,12 @@ impl Axis {
 
     /// The learned table of tuned parameters by operating point, when configured.
     pub fn learned_table(&self) -> Option<&LearnedTable> {
-        self.operating_points.as_ref().map(|m| m.table())
+        self.friction.learned_table()
     }
 
     /// Take a stored learned table; false when this axis has none or another grid.
     pub fn restore_learned_table(&mut self, table: &LearnedTable) -> bool {
-        self.operating_points
-            .as_mut()
-            .is_some_and(|m| m.restore(table))
+        self.friction.restore_learned_table(table)
     }
 
     /// Clear latched faults; the controller restarts bumplessly from the safe command.
@@ -668,9 +629,7 @@ impl Axis {
         self.model.confidence = 1.0;
         self.model.machine = FaultMachineOutput::default();
         // The reference model restarts from where the axis rests; what was learned stays.
-        if let Some(a) = self.adaptive_friction.as_mut() {
-            a.reset_model();
-        }
+        self.friction.reset_model();
         self.controller.preset(self.safe_command);
         self.node_was_operational = self.node_state == Some(NmtState::Operational);
         self.last_command = self.safe_command;
@@ -853,8 +812,7 @@ impl Axis {
         let y = self.sensor.position;
         if self.model.machine.fail_safe {
             self.last_command = self.safe_command;
-            self.last_compensation = 0.0;
-            self.last_dither = 0.0;
+            self.friction.idle();
         } else if self.fresh {
             if let Some(p) = self.pneumatic.as_mut() {
                 // Scheduled (and, when configured, adapted) direction P gains on the supply.
@@ -865,7 +823,7 @@ impl Axis {
                     self.pneumatic_eigenvalue,
                 );
                 self.last_command = self.pneumatic_step.duty;
-                self.last_compensation = 0.0;
+                self.friction.no_compensation();
             } else {
                 // u = f*(G_c(q) g e) + U_comp + u_d: the schedule's factor g scales the error
                 // the linear controller sees (the same as scaling its q coefficients), the
@@ -873,31 +831,12 @@ impl Axis {
                 // dither are added after it because they are already in command units at the
                 // actuator.
                 let e_scaled = self.gain_factor * e;
-                if let (Some(m), Some(a)) = (
-                    self.operating_points.as_mut(),
-                    self.adaptive_friction.as_mut(),
-                ) {
-                    // A drive's supply is its DC link voltage.
-                    let supply = match self.command_kind {
-                        CommandKind::Duty => self.supply_pressure_pa,
-                        _ => self.sensor.supply_voltage_v,
-                    };
-                    let op = OperatingPoint {
-                        position_m: y,
-                        load_n: 0.0,
-                        supply,
-                    };
-                    m.step(&op, a);
-                }
-                let comp = match (self.adaptive_friction.as_mut(), self.friction) {
-                    (Some(a), _) => a.step(self.reference, y).compensation,
-                    (None, Some(f)) => f.compensation(e),
-                    (None, None) => 0.0,
+                // A drive's supply is its DC link voltage.
+                let supply = match self.command_kind {
+                    CommandKind::Duty => self.supply_pressure_pa,
+                    _ => self.sensor.supply_voltage_v,
                 };
-                let dither = self
-                    .dither
-                    .as_mut()
-                    .map_or(0.0, |d| d.step(self.reference, y));
+                let (comp, dither) = self.friction.step(self.reference, y, e, supply);
                 let u_c = self.controller.propose(e_scaled);
                 let u_corr = self.correction.as_mut().map_or(u_c, |c| c.step(u_c, y));
                 // The limits the supply allows: u_max(V) = f_l(V) u_max (schedule).
@@ -917,21 +856,16 @@ impl Axis {
                 };
                 self.controller.commit(e_scaled, share);
                 self.last_command = u;
-                self.last_compensation = comp;
-                self.last_dither = dither;
             }
         }
-        let (comp_pos, comp_neg) = match (&self.adaptive_friction, self.friction) {
-            (Some(a), _) => a.compensation_values(),
-            (None, Some(f)) => (f.compensation(1.0), -f.compensation(-1.0)),
-            (None, None) => (0.0, 0.0),
-        };
+        let (comp_pos, comp_neg) = self.friction.levels();
+        let (compensation, dither) = self.friction.applied();
         let p = &self.pneumatic_step;
         let tuned = Tuned {
             friction_compensation_pos: comp_pos,
             friction_compensation_neg: comp_neg,
             gain_schedule_factor: self.gain_factor,
-            dither: self.last_dither,
+            dither,
             gain_down_per_m: p.gain_down_per_m,
             gain_up_per_m: p.gain_up_per_m,
             drive_gain_down_m_per_s: p.estimate_down_m_per_s,
@@ -944,7 +878,7 @@ impl Axis {
         };
         AxisStep {
             command: self.last_command,
-            friction_compensation: self.last_compensation,
+            friction_compensation: compensation,
             setpoint: self.setpoint,
             reference: self.reference,
             following_error: e,
@@ -984,7 +918,7 @@ mod tests {
 
     fn axis() -> Axis {
         let c = Config::from_toml(
-            include_str!("../../config/solenoid.toml"),
+            include_str!("../../../config/solenoid.toml"),
             Path::new("config/solenoid.toml"),
         )
         .expect("valid config");
