@@ -6,16 +6,16 @@
 //! Sans-I/O: the node feeds it decoded frames and takes the command back. Everything is built in
 //! [`Axis::new`]; the stages allocate nothing.
 
-use super::config::{cycles, AxisConfig, CommandKind, ScheduleVariable, SetpointStep};
+use super::config::{cycles, AxisConfig, CommandKind, SetpointStep};
 mod friction;
+mod schedule;
 
 use super::learned::AxisLearned;
 use crate::canopen::NmtState;
 use crate::control::robust::StateSpaceController;
 use crate::control::{
-    BandStatus, ControllerError, DiscreteController, GainSchedule, GainSource, LearnedTable,
-    LinearController, NonlinearCorrection, ParamError, PneumaticAdaptive, PneumaticStep,
-    SupplyBand,
+    BandStatus, ControllerError, DiscreteController, GainSource, LearnedTable, LinearController,
+    NonlinearCorrection, ParamError, PneumaticAdaptive, PneumaticStep,
 };
 use crate::device::{
     Emcy, FaultDiagnosisPdo, FaultStatePdo, SensorPdo, TunedGainsPdo, TunedParametersPdo,
@@ -29,6 +29,7 @@ use crate::supervise::{
     SymptomThresholds, PHYSICAL_PARAMS,
 };
 use friction::FrictionCompensation;
+use schedule::SupplySchedule;
 
 /// What the axis has learned or runs with this cycle (the tuned-parameter frames).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -277,7 +278,8 @@ pub struct Axis {
     /// Friction compensation (feed-forward or adaptive), its learned table and the dither.
     friction: FrictionCompensation,
     correction: Option<NonlinearCorrection>,
-    gain_schedule: Option<(ScheduleVariable, GainSchedule)>,
+    /// Gain and command-limit factors scheduled on the supply, and its scheduled band.
+    supply_schedule: SupplySchedule,
     pneumatic: Option<PneumaticAdaptive>,
     pneumatic_step: PneumaticStep,
     /// `z` of this cycle's drive-gain estimation update (estimation stage), 1 for none.
@@ -287,11 +289,6 @@ pub struct Axis {
     estimation: Option<Estimation>,
     machine: FaultMachine,
     model: ModelSupervision,
-    gain_factor: f64,
-    /// Share of the output limits the supply allows (the schedule's `command_limit_factor`).
-    command_limit_factor: f64,
-    /// The scheduled band of the measured supply and what it reads.
-    supply_band: Option<(ScheduleVariable, SupplyBand)>,
     supervisor: LimitSupervisor,
     travel: (f64, f64),
     setpoint: f64,
@@ -375,41 +372,7 @@ impl Axis {
             .map(NonlinearCorrection::new)
             .transpose()
             .map_err(unvalidated)?;
-        let gain_schedule = match (cfg.gain_factor_points(), &cfg.schedule) {
-            (Ok(Some(points)), Some(s)) => Some((
-                s.variable().0,
-                GainSchedule::new(&points).map_err(unvalidated)?,
-            )),
-            (Err(_), _) => return Err(ControllerError::NotFinite("schedule")),
-            _ => None,
-        };
-        let scheduled_band = |lo: Option<f64>, hi: Option<f64>| {
-            if lo.is_none() && hi.is_none() {
-                return Ok(None);
-            }
-            SupplyBand::new(
-                lo.unwrap_or(f64::MIN),
-                hi.unwrap_or(f64::MAX),
-                cycles(l.supply_time_s, period_s),
-            )
-            .map(Some)
-        };
-        let supply_band = match (
-            scheduled_band(
-                l.supply_voltage_scheduled_min_v,
-                l.supply_voltage_scheduled_max_v,
-            )
-            .map_err(unvalidated)?,
-            scheduled_band(
-                l.supply_pressure_scheduled_min_pa,
-                l.supply_pressure_scheduled_max_pa,
-            )
-            .map_err(unvalidated)?,
-        ) {
-            (Some(b), _) => Some((ScheduleVariable::SupplyVoltage, b)),
-            (None, Some(b)) => Some((ScheduleVariable::SupplyPressure, b)),
-            (None, None) => None,
-        };
+        let schedule = SupplySchedule::new(cfg, period_s)?;
         let pneumatic = match cfg.pneumatic_config(period_s) {
             Ok(Some(c)) => Some(PneumaticAdaptive::new(&c).map_err(unvalidated)?),
             Ok(None) => None,
@@ -457,7 +420,7 @@ impl Axis {
             controller,
             friction,
             correction,
-            gain_schedule,
+            supply_schedule: schedule,
             pneumatic,
             pneumatic_step: PneumaticStep::default(),
             pneumatic_eigenvalue: 1.0,
@@ -473,9 +436,6 @@ impl Axis {
                 confidence: 1.0,
                 ..Default::default()
             },
-            gain_factor: 1.0,
-            command_limit_factor: 1.0,
-            supply_band,
             supervisor: LimitSupervisor::new(limits),
             travel: (
                 l.position_min_m.unwrap_or(f64::NEG_INFINITY),
@@ -682,24 +642,11 @@ impl Axis {
         self.reference += (self.setpoint - self.reference)
             .clamp(-self.reference_step_max, self.reference_step_max);
         self.error = self.reference - self.sensor.position;
-        if let Some((variable, schedule)) = self.gain_schedule.as_mut() {
-            let supply = match variable {
-                ScheduleVariable::SupplyVoltage => self.sensor.supply_voltage_v,
-                ScheduleVariable::SupplyPressure => self.supply_pressure_pa,
-            };
-            // A lost reading keeps the last factors (the schedule ignores non-finite input).
-            let out = schedule.step(supply);
-            if let Some(&factor) = out.first() {
-                self.gain_factor = factor;
-            }
-            self.command_limit_factor = out.get(1).copied().unwrap_or(1.0);
-        }
-        if let (Some((variable, band)), true) = (self.supply_band.as_mut(), self.fresh) {
-            band.step(match variable {
-                ScheduleVariable::SupplyVoltage => self.sensor.supply_voltage_v,
-                ScheduleVariable::SupplyPressure => self.supply_pressure_pa,
-            });
-        }
+        self.supply_schedule.step(
+            self.sensor.supply_voltage_v,
+            self.supply_pressure_pa,
+            self.fresh,
+        );
     }
 
     /// Stage "estimation": this cycle's position with the command applied during the period
@@ -793,10 +740,7 @@ impl Axis {
         // is exceeded but not yet latched.
         let mut state = state_of(machine.level);
         // Outside the scheduled band of the supply the loop goes on, and says so.
-        let off_band = self
-            .supply_band
-            .as_ref()
-            .is_some_and(|(_, b)| b.status() != BandStatus::Inside);
+        let off_band = self.supply_schedule.band() != BandStatus::Inside;
         if (off_band || !limits.pending.is_empty())
             && state.severity() < FaultState::Warning.severity()
         {
@@ -830,7 +774,7 @@ impl Axis {
                 // correction linearises the static characteristic, friction compensation and
                 // dither are added after it because they are already in command units at the
                 // actuator.
-                let e_scaled = self.gain_factor * e;
+                let e_scaled = self.supply_schedule.gain_factor() * e;
                 // A drive's supply is its DC link voltage.
                 let supply = match self.command_kind {
                     CommandKind::Duty => self.supply_pressure_pa,
@@ -841,10 +785,8 @@ impl Axis {
                 let u_corr = self.correction.as_mut().map_or(u_c, |c| c.step(u_c, y));
                 // The limits the supply allows: u_max(V) = f_l(V) u_max (schedule).
                 let (lo, hi) = self.controller.limits();
-                let (lo, hi) = (
-                    lo * self.command_limit_factor,
-                    hi * self.command_limit_factor,
-                );
+                let limit_factor = self.supply_schedule.command_limit_factor();
+                let (lo, hi) = (lo * limit_factor, hi * limit_factor);
                 let u = (u_corr + comp + dither).clamp(lo, hi);
                 // The controller's own share of what was applied, back through the correction's
                 // gain: feeding it back is the anti-windup.
@@ -864,7 +806,7 @@ impl Axis {
         let tuned = Tuned {
             friction_compensation_pos: comp_pos,
             friction_compensation_neg: comp_neg,
-            gain_schedule_factor: self.gain_factor,
+            gain_schedule_factor: self.supply_schedule.gain_factor(),
             dither,
             gain_down_per_m: p.gain_down_per_m,
             gain_up_per_m: p.gain_up_per_m,
@@ -888,19 +830,13 @@ impl Axis {
             supervision,
             model: self.model,
             tuned,
-            supply_band: self
-                .supply_band
-                .as_ref()
-                .map_or(BandStatus::Inside, |(_, b)| b.status()),
+            supply_band: self.supply_schedule.band(),
         }
     }
 
     /// The scheduled band watches the supply pressure (else the supply voltage).
     pub fn supply_band_is_pressure(&self) -> bool {
-        matches!(
-            self.supply_band,
-            Some((ScheduleVariable::SupplyPressure, _))
-        )
+        self.supply_schedule.band_is_pressure()
     }
 
     /// The command for leaving operation: the safe value.
