@@ -163,6 +163,13 @@ pub enum LabCommand {
         /// Output directory.
         #[arg(long)]
         out: PathBuf,
+        /// Run `discover` from the first model (the --family one, or the first --model) and
+        /// draw its ladder: the error rung by rung, the residual before and after each rung.
+        #[arg(long)]
+        discover: bool,
+        /// Smallest relative NRMSE drop that counts for --discover, in and out of sample.
+        #[arg(long, default_value_t = 0.05, requires = "discover")]
+        min_improvement: f64,
     },
 }
 
@@ -619,6 +626,8 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             with,
             mode,
             out,
+            discover: ladder,
+            min_improvement,
         } => {
             // A model named by family and effects has default values nobody chose: it enters
             // the report refitted, as `diagnose` judges it.
@@ -641,7 +650,25 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 })
                 .transpose()?;
             let models: Vec<Model> = first.into_iter().chain(files).collect();
-            let path = actuatord::lab::report::write_report(&out, &d, &prep, &models, mode)?;
+            let found = if ladder {
+                let opts = DiagnoseOptions {
+                    min_improvement,
+                    ..DiagnoseOptions::default()
+                };
+                Some(discover(&models[0], &d, &prep, &opts, &|step, effect| {
+                    eprintln!("step {step}: adding {effect}, refitting")
+                })?)
+            } else {
+                None
+            };
+            let path = actuatord::lab::report::write_report(
+                &out,
+                &d,
+                &prep,
+                &models,
+                mode,
+                found.as_ref(),
+            )?;
             println!("wrote {}", path.display());
             Ok(())
         }
