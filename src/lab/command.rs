@@ -9,9 +9,10 @@
 //! | `duty` | pneumatic | the signed valve duty in `[-1, 1]` |
 //! | `current` | linear_axis, solenoid, motor_gear | a current-mode amplifier: the current the drive imposes (the force or torque follows it without the coil's lag) |
 //!
-//! A current command is the family's drive with the current measured: `u` becomes the current
-//! signal (solenoid: `F = K_Mag u`; motor_gear: `τ_m = K_T u`), so the stages before the current
-//! (coil lag, power stage, dead zone, supply) are not part of the model. On a linear axis a
+//! A current command is the family's drive with the current imposed: on a solenoid `u` becomes
+//! the measured current (`F = K_Mag u`), on a gear the motor torque `τ_m = K_T u` (the declared
+//! torque constant); the stages before the current (coil lag, armature, power stage, dead zone,
+//! supply) are not part of the model. On a linear axis a
 //! current-mode amplifier gives a force `K_F u`: the balance takes the command as its scale, so the
 //! fitted mass and friction come out per unit of `K_F` (multiply by `K_F` for newtons).
 
@@ -99,8 +100,19 @@ impl Command {
             (Command::Duty, _) => CommandUnit::Duty,
             (Command::Voltage, _) => CommandUnit::Volt,
             (Command::Current, Family::LinearAxis) => CommandUnit::Newton,
+            (Command::Current, Family::MotorGear) => {
+                // An imposed armature current is a motor torque `K_T u`, held over the sample
+                // as the amplifier holds it.
+                let kt = spec
+                    .get("motor_gear.torque_constant_nm_per_a")
+                    .unwrap_or(f64::NAN);
+                for u in &mut data.input {
+                    *u *= kt;
+                }
+                CommandUnit::NewtonMetre
+            }
             (Command::Current, _) => {
-                // The drive's current is imposed: it is the measured current of the balance.
+                // The coil's current is imposed: it is the measured current of the balance.
                 data.current = Some(data.input.clone());
                 CommandUnit::Volt
             }
@@ -140,7 +152,9 @@ mod tests {
                 c.apply(&mut spec, &mut d)
                     .unwrap_or_else(|e| panic!("{c} on {family}: {e}"));
                 let want = match (c, family) {
-                    (Command::Torque, _) => CommandUnit::NewtonMetre,
+                    (Command::Torque, _) | (Command::Current, Family::MotorGear) => {
+                        CommandUnit::NewtonMetre
+                    }
                     (Command::Duty, _) => CommandUnit::Duty,
                     (Command::Force, _) | (Command::Current, Family::LinearAxis) => {
                         CommandUnit::Newton
@@ -148,13 +162,22 @@ mod tests {
                     _ => CommandUnit::Volt,
                 };
                 assert_eq!(spec.command, want, "{c} on {family}");
-                // A current command is the current the balance uses; others leave the record.
-                let current = if c == Command::Current && family != Family::LinearAxis {
+                // A solenoid's current command is the current the balance uses, a gear's the
+                // motor torque `K_T u`; others leave the record.
+                let current = if c == Command::Current && family == Family::Solenoid {
                     d.input.clone()
                 } else {
                     vec![9.0; 3]
                 };
                 assert_eq!(d.current, Some(current), "{c} on {family}");
+                let kt = if c == Command::Current && family == Family::MotorGear {
+                    spec.get("motor_gear.torque_constant_nm_per_a")
+                        .expect("K_T")
+                } else {
+                    1.0
+                };
+                let want_u: Vec<f64> = record().input.iter().map(|u| u * kt).collect();
+                assert_eq!(d.input, want_u, "{c} on {family}");
             }
         }
         // Every command has a family, every family a command.
