@@ -34,9 +34,15 @@ fn compare_fit(dir: &std::path::Path, extra: &[&str]) -> f64 {
 
 #[test]
 fn a_torque_commanded_gear_fits_once_its_command_is_named() {
-    for seed in [1, 2, 3] {
+    for (hidden, seed) in [
+        (None, 1),
+        (None, 2),
+        (None, 3),
+        (Some(GearHidden::Backlash), 4),
+        (Some(GearHidden::Backlash), 5),
+    ] {
         let dir = tempfile::tempdir().expect("tempdir");
-        let gear = Gear::draw(None, seed);
+        let gear = Gear::draw(hidden, seed);
         std::fs::write(
             dir.path().join("gear.csv"),
             to_csv(&gear.simulate(seed, LENGTH_S)),
@@ -50,11 +56,15 @@ fn a_torque_commanded_gear_fits_once_its_command_is_named() {
         let as_voltage = compare_fit(dir.path(), &[]);
         let as_torque = compare_fit(dir.path(), &["--command", "torque"]);
         eprintln!(
-            "seed {seed} dt {} ms: drive-torque fit read as a voltage {as_voltage:.1} %, \
+            "{:?} seed {seed} dt {} ms: drive-torque fit read as a voltage {as_voltage:.1} %, \
              as a torque {as_torque:.1} %",
+            gear.complete_effects(),
             gear.dt * 1e3
         );
-        assert!(as_torque >= 90.0, "seed {seed}: {as_torque:.1} %");
+        // The play makes the contact an impact: the drive side run on the sampled load angle
+        // follows it less closely than a rigid contact.
+        let least = if hidden.is_some() { 80.0 } else { 90.0 };
+        assert!(as_torque >= least, "seed {seed}: {as_torque:.1} %");
         assert!(
             as_voltage < as_torque - 20.0,
             "seed {seed}: {as_voltage:.1} %"
@@ -151,6 +161,39 @@ fn a_torque_commanded_gear_is_diagnosed() {
                 wrong.push((hidden, seed, got));
             }
         }
+    }
+    assert!(wrong.is_empty(), "wrong verdicts: {wrong:?}");
+}
+
+/// Every case on seeds 1-6 (`LAB_SEEDS=...` for others): the figures of docs/lab.md.
+#[test]
+#[ignore = "sweep over seeds; run with --release -- --ignored"]
+fn torque_commanded_gear_sweep() {
+    let seeds: Vec<u64> = std::env::var("LAB_SEEDS")
+        .ok()
+        .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
+        .unwrap_or_else(|| (1..=6).collect());
+    let mut wrong = Vec::new();
+    for hidden in [
+        None,
+        Some(GearHidden::Coulomb),
+        Some(GearHidden::Viscous),
+        Some(GearHidden::Backlash),
+    ] {
+        let mut right = 0;
+        for &seed in &seeds {
+            let got = verdict(hidden, seed);
+            if got.as_deref() == hidden.map(GearHidden::lab_name) {
+                right += 1;
+            } else {
+                wrong.push((hidden, seed, got));
+            }
+        }
+        eprintln!(
+            "right/total {}: {right}/{}",
+            hidden.map_or("(complete)", GearHidden::lab_name),
+            seeds.len()
+        );
     }
     assert!(wrong.is_empty(), "wrong verdicts: {wrong:?}");
 }

@@ -153,6 +153,11 @@ impl Gear {
 
     /// Simulate the closed loop; the record as the lab reads it, `u` the motor torque (N·m).
     pub fn simulate(&self, seed: u64, length_s: f64) -> Dataset {
+        self.simulate_with_contact(seed, length_s).0
+    }
+
+    /// [`Gear::simulate`] and the torque the contact transmits to the load at each sample.
+    pub fn simulate_with_contact(&self, seed: u64, length_s: f64) -> (Dataset, Vec<f64>) {
         let mut g = Draw::new(seed.wrapping_add(0x9e37));
         let samples = (length_s / self.dt) as usize;
         let sub = (self.dt / 2e-5).round().max(1.0) as usize;
@@ -169,7 +174,10 @@ impl Gear {
         let norm: f64 = waves.iter().map(|w| w.1).sum();
         let amp = 0.5;
         let drive_inertia = self.gear_inertia + self.ratio * self.ratio * self.motor_inertia;
-        // PID on the load angle, in motor torque: bandwidth 4 Hz on the whole inertia.
+        // PID in motor torque: proportional and integral on the load angle, the damping on the
+        // motor encoder's speed (referred to the gear output), as a servo drive's speed loop
+        // gives it: the drive stays damped while it crosses a play, where the load angle says
+        // nothing. Bandwidth 4 Hz on the whole inertia.
         let w = std::f64::consts::TAU * 4.0;
         let m = (drive_inertia + self.load_inertia) / self.ratio;
         let (kp, ki, kd) = (m * w * w, m * w * w * w / 5.0, 1.6 * m * w);
@@ -182,13 +190,13 @@ impl Gear {
             current: None,
         };
         let (mut th_d, mut w_d, mut th_l, mut w_l) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-        let (mut integ, mut e_prev, mut de) = (0.0, 0.0, 0.0);
+        let mut integ = 0.0;
         let measure = |x: f64, g: &mut Draw| {
             let y = x + self.sensor_zero + self.noise * g.gauss();
             (y / self.quantum).round() * self.quantum
         };
         let mut y = measure(th_l, &mut g);
-        let half = 0.5 * self.play;
+        let mut transmitted = Vec::with_capacity(samples);
         let band = 1e-4;
         for k in 0..samples {
             let time = k as f64 * self.dt;
@@ -198,11 +206,15 @@ impl Gear {
                 .sum::<f64>()
                 / norm;
             let e = amp * shape + self.sensor_zero - y;
-            // Derivative through a 2 ms first-order filter.
-            let alpha = self.dt / (2e-3 + self.dt);
-            de += alpha * ((e - e_prev) / self.dt - de);
-            e_prev = e;
-            let raw = kp * e + ki * integ + kd * de;
+            let rate = amp
+                * waves
+                    .iter()
+                    .map(|(f, a, p)| {
+                        a * std::f64::consts::TAU * f * (std::f64::consts::TAU * f * time + p).cos()
+                    })
+                    .sum::<f64>()
+                / norm;
+            let raw = kp * e + ki * integ + kd * (rate - w_d);
             let u = raw.clamp(-self.torque_limit, self.torque_limit);
             if u == raw {
                 integ += e * self.dt;
@@ -210,16 +222,9 @@ impl Gear {
             d.time.push(time);
             d.input.push(u);
             d.output.push(y);
+            transmitted.push(self.contact(th_d - th_l, w_d - w_l));
             for _ in 0..sub {
-                let twist = th_d - th_l;
-                let rate = w_d - w_l;
-                let contact = if twist > half {
-                    (self.stiffness * (twist - half) + self.damping * rate).max(0.0)
-                } else if twist < -half {
-                    (self.stiffness * (twist + half) + self.damping * rate).min(0.0)
-                } else {
-                    0.0
-                };
+                let contact = self.contact(th_d - th_l, w_d - w_l);
                 // Drive side: the motor torque through the ratio against the contact.
                 w_d += h * (self.ratio * u - contact) / drive_inertia;
                 th_d += h * w_d;
@@ -261,6 +266,19 @@ impl Gear {
             }
             y = measure(th_l, &mut g);
         }
-        d
+        (d, transmitted)
+    }
+
+    /// Torque through the contact at a twist (gear output ahead of the load) and its rate: a
+    /// spring-damper outside the play, nothing inside it, and it can only push.
+    fn contact(&self, twist: f64, rate: f64) -> f64 {
+        let half = 0.5 * self.play;
+        if twist > half {
+            (self.stiffness * (twist - half) + self.damping * rate).max(0.0)
+        } else if twist < -half {
+            (self.stiffness * (twist + half) + self.damping * rate).min(0.0)
+        } else {
+            0.0
+        }
     }
 }
