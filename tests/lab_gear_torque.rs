@@ -65,6 +65,28 @@ fn a_torque_commanded_gear_fits_once_its_command_is_named() {
         // follows it less closely than a rigid contact.
         let least = if hidden.is_some() { 80.0 } else { 90.0 };
         assert!(as_torque >= least, "seed {seed}: {as_torque:.1} %");
+        if seed == 1 {
+            // The report reads the command the same way: its table gives the same fit.
+            lab_common::actuator(
+                dir.path(),
+                &[
+                    "report",
+                    "--data",
+                    "gear.csv",
+                    "--model",
+                    "gear.toml",
+                    "--command",
+                    "torque",
+                    "--out",
+                    "rep",
+                ],
+            );
+            let html = std::fs::read_to_string(dir.path().join("rep/index.html")).expect("report");
+            assert!(
+                html.contains(&format!("<td>gear</td><td>{as_torque:.1}</td>")),
+                "the report's fit is compare's"
+            );
+        }
         assert!(
             as_voltage < as_torque - 20.0,
             "seed {seed}: {as_voltage:.1} %"
