@@ -219,3 +219,104 @@ fn torque_commanded_gear_sweep() {
     }
     assert!(wrong.is_empty(), "wrong verdicts: {wrong:?}");
 }
+
+/// The project's own gear plant (`src/physics`) in torque mode with backlash, under the same
+/// kind of loop: the diagnosis names backlash, and says none once the model has it.
+#[test]
+fn the_physics_gear_in_torque_mode_with_backlash_is_diagnosed_as_backlash() {
+    use actuatord::physics::{CommandUnit, EffectKind, Family, PlantSpec};
+    let mut spec = PlantSpec::new(Family::MotorGear);
+    spec.set_command(CommandUnit::NewtonMetre).expect("torque");
+    for e in [
+        EffectKind::Viscous,
+        EffectKind::Coulomb,
+        EffectKind::Backlash,
+    ] {
+        spec.add_effect(e).expect("effect");
+    }
+    spec.set("backlash.gap_rad", 0.008).expect("gap");
+    lab_common::sensor(&mut spec, 3);
+    let mut plant = spec.build().expect("plant");
+    let (dt, n) = (1e-3, 8000);
+    let h = spec.get("motor_gear.ratio").expect("ratio");
+    let inertia = ["gear_inertia_kg_m2", "load_inertia_kg_m2"]
+        .iter()
+        .map(|k| spec.get(&format!("motor_gear.{k}")).expect("inertia"))
+        .sum::<f64>()
+        + h * h * spec.get("motor_gear.motor_inertia_kg_m2").expect("J_m");
+    let (w, m) = (std::f64::consts::TAU * 4.0, inertia / h);
+    let (kp, ki, kd) = (m * w * w, m * w * w * w / 5.0, 1.6 * m * w);
+    let mut data = actuatord::lab::Dataset {
+        origin: "physics gear".into(),
+        time: Vec::new(),
+        input: Vec::new(),
+        output: Vec::new(),
+        supply: None,
+        current: None,
+    };
+    let (mut integ, mut gear_prev) = (0.0, plant.drive_position());
+    for k in 0..n {
+        let t = k as f64 * dt;
+        let (r, r_rate) = (
+            0.4 * (std::f64::consts::TAU * 0.7 * t).sin()
+                + 0.2 * (std::f64::consts::TAU * 1.9 * t).sin(),
+            0.4 * std::f64::consts::TAU * 0.7 * (std::f64::consts::TAU * 0.7 * t).cos()
+                + 0.2 * std::f64::consts::TAU * 1.9 * (std::f64::consts::TAU * 1.9 * t).cos(),
+        );
+        let y = plant.measure().position;
+        let gear = plant.drive_position();
+        let gear_speed = (gear - gear_prev) / dt;
+        gear_prev = gear;
+        let e = r - y;
+        integ += e * dt;
+        let u = kp * e + ki * integ + kd * (r_rate - gear_speed);
+        data.time.push(t);
+        data.input.push(u);
+        data.output.push(y);
+        plant.step(u, dt);
+    }
+    for (with, want) in [
+        ("viscous,coulomb", Some("backlash")),
+        ("viscous,coulomb,backlash", None),
+    ] {
+        let mut d = data.clone();
+        let mut model = Model::from_names("motor_gear", &[with.to_string()]).expect("model");
+        // The drive constants as the plant's data sheet gives them.
+        for (name, p) in spec.params() {
+            if name.starts_with("motor_gear.") && name != "motor_gear.load_inertia_kg_m2" {
+                model.spec.set(&name, p.value).expect("same family");
+                model.spec.set_free(&name, false).expect("known");
+            }
+        }
+        Command::Torque
+            .apply(&mut model.spec, &mut d)
+            .expect("motor_gear takes a torque");
+        let prep = prepare(&d, None);
+        let dg = diagnose(
+            &model,
+            &d,
+            &prep,
+            &DiagnoseOptions::default(),
+            &|_, _, _| {},
+        )
+        .expect("diagnosis runs");
+        eprintln!(
+            "physics gear, torque mode, model {with}: NRMSE {:.4}, verdict {}",
+            dg.nrmse_base,
+            dg.verdict.as_deref().unwrap_or("none")
+        );
+        if std::env::var("LAB_VERBOSE").is_ok() {
+            for c in &dg.candidates {
+                eprintln!(
+                    "    {:<20} drop {:+.3} held-out {:+.3} ΔBIC {:9.1} {}",
+                    c.effect,
+                    c.improvement,
+                    c.holdout_improvement,
+                    c.delta_bic,
+                    if c.significant { "*" } else { "" }
+                );
+            }
+        }
+        assert_eq!(dg.verdict.as_deref(), want, "model {with}");
+    }
+}
