@@ -92,3 +92,87 @@ fn discover_adds_both_missing_effects_in_turn_and_nothing_to_a_complete_model() 
     );
     assert!((b - f).abs() <= 1e-9 * b.max(1.0), "{complete:#}");
 }
+
+/// The text between `start` and the next `end` after it.
+fn between<'a>(text: &'a str, start: &str, end: &str) -> &'a str {
+    let from = text.find(start).map_or(text.len(), |i| i + start.len());
+    let rest = &text[from..];
+    &rest[..rest.find(end).unwrap_or(rest.len())]
+}
+
+#[test]
+fn report_draws_the_ladder_discover_climbs() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let truth = Truth::draw(Plant::ServoAxis, None, 4);
+    std::fs::write(
+        dir.path().join("axis.csv"),
+        to_csv(&simulate_for(&truth, 4, 0.5)),
+    )
+    .expect("write CSV");
+    let base = ["--data", "axis.csv", "--family", "linear_axis"];
+    let found = json(
+        dir.path(),
+        &[&["discover", "--json"][..], &base[..]].concat(),
+    );
+    lab_common::actuator(
+        dir.path(),
+        &[&["report", "--discover", "--out", "rep"][..], &base[..]].concat(),
+    );
+    let html = std::fs::read_to_string(dir.path().join("rep/index.html")).expect("report");
+    let ladder = between(&html, "<h2>Discover: the ladder</h2>", "</body>");
+    assert!(!ladder.is_empty(), "the report has the ladder");
+    let steps = found["steps"].as_array().expect("steps");
+    assert_eq!(steps.len(), 2, "{found:#}");
+    // The table: one row per rung with the figures of `discover`, in its order.
+    let table = between(ladder, "<table>", "</table>");
+    let rows: Vec<&str> = table.split("<tr>").skip(2).collect();
+    assert_eq!(rows.len(), steps.len(), "{table}");
+    for (i, (row, s)) in rows.iter().zip(steps).enumerate() {
+        let cell = |x: &str| format!("<td>{x}</td>");
+        let f = |key: &str| format!("{:.4}", s[key].as_f64().expect("figure"));
+        for want in [
+            cell(&(i + 1).to_string()),
+            cell(s["effect"].as_str().expect("effect")),
+            cell(&f("nrmse_before")),
+            cell(&f("nrmse")),
+        ] {
+            assert!(row.contains(&want), "rung {}: {want} in {row}", i + 1);
+        }
+    }
+    // The bars of the error falling rung by rung, and per rung the residual before and after.
+    let bars = between(ladder, "NRMSE step by step", "</svg>");
+    assert!(bars.contains("as given (refitted)"), "{bars}");
+    for s in steps {
+        let effect = s["effect"].as_str().expect("effect");
+        assert!(bars.contains(&format!("+{effect}")), "{effect} in the bars");
+    }
+    // The foot and the rungs: three bars, falling.
+    let widths: Vec<f64> = bars
+        .split("<rect")
+        .skip(1)
+        .filter_map(|r| between(r, "width=\"", "\"").parse().ok())
+        .collect();
+    assert_eq!(widths.len(), 3, "{bars}");
+    assert!(widths[0] > widths[1] && widths[1] > widths[2], "{widths:?}");
+    for (i, s) in steps.iter().enumerate() {
+        let effect = s["effect"].as_str().expect("effect");
+        let title = format!("step {}: +{effect}, residual before and after", i + 1);
+        let chart = between(ladder, &title, "</svg>");
+        assert!(!chart.is_empty() && ladder.contains(&title), "{title}");
+        assert!(chart.contains("before (NRMSE") && chart.contains(&format!("after +{effect}")));
+        assert!(
+            chart.matches("<circle").count() > 100,
+            "the residuals' dots"
+        );
+    }
+    assert!(ladder.contains(&format!(
+        "final model with {}",
+        found["with"]
+            .as_array()
+            .expect("with")
+            .iter()
+            .filter_map(|w| w.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    )));
+}

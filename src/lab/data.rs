@@ -546,9 +546,40 @@ fn parse_field(raw: &str) -> Result<f64, FieldFault> {
     }
 }
 
-/// Read the daemon's MCAP recording (topic `/actuatord/cycle`). The command is the voltage, or
-/// the duty when no voltage was commanded; the supply is the pressure when one was recorded,
-/// otherwise the voltage.
+/// Which command column of the daemon's recording an axis used: the one that is not zero
+/// throughout (a voltage, a CiA 402 drive's target torque, or a valve duty; voltage when the
+/// command never left zero). A velocity command is no drive force or torque: refused.
+fn mcap_command(
+    cycles: &[crate::recording::CycleRecord],
+    origin: &str,
+) -> Result<McapCommand, DataError> {
+    let any = |f: fn(&crate::recording::CycleRecord) -> f64| cycles.iter().any(|c| f(c) != 0.0);
+    Ok(if any(|c| c.command_voltage) {
+        McapCommand::Voltage
+    } else if any(|c| c.command_torque) {
+        McapCommand::Torque
+    } else if any(|c| c.command_duty) {
+        McapCommand::Duty
+    } else if any(|c| c.command_velocity) {
+        return Err(DataError(format!(
+            "{origin}: the axis was commanded a velocity (CiA 402 CSV); the lab needs the force, \
+             torque, voltage, duty or current its drive was given"
+        )));
+    } else {
+        McapCommand::Voltage
+    })
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum McapCommand {
+    Voltage,
+    Torque,
+    Duty,
+}
+
+/// Read the daemon's MCAP recording (topic `/actuatord/cycle`). The command is the column the
+/// axis used (see [`mcap_command`]: voltage, torque or duty); the supply is the pressure when one
+/// was recorded, otherwise the voltage.
 pub fn load_mcap(path: &Path) -> Result<Dataset, DataError> {
     let origin = path.display().to_string();
     let cycles =
@@ -563,7 +594,15 @@ pub fn load_mcap(path: &Path) -> Result<Dataset, DataError> {
         .into_iter()
         .filter(|c| c.axis_node_id == node)
         .collect();
-    let duty = cycles.iter().all(|c| c.command_voltage == 0.0);
+    from_cycles(&cycles, origin)
+}
+
+/// A data set from the cycle records of one axis.
+fn from_cycles(
+    cycles: &[crate::recording::CycleRecord],
+    origin: String,
+) -> Result<Dataset, DataError> {
+    let command = mcap_command(cycles, &origin)?;
     let pressure = cycles.iter().any(|c| c.supply_pressure != 0.0);
     let any_supply = cycles
         .iter()
@@ -574,12 +613,10 @@ pub fn load_mcap(path: &Path) -> Result<Dataset, DataError> {
         time: cycles.iter().map(|c| c.t_s).collect(),
         input: cycles
             .iter()
-            .map(|c| {
-                if duty {
-                    c.command_duty
-                } else {
-                    c.command_voltage
-                }
+            .map(|c| match command {
+                McapCommand::Voltage => c.command_voltage,
+                McapCommand::Torque => c.command_torque,
+                McapCommand::Duty => c.command_duty,
             })
             .collect(),
         output: cycles.iter().map(|c| c.position).collect(),
@@ -772,6 +809,52 @@ mod tests {
         }
         lossy.validate().expect("valid");
         assert_eq!(lossy.segments(), vec![0..100]);
+    }
+
+    fn cycles(
+        f: fn(&mut crate::recording::CycleRecord, f64),
+    ) -> Vec<crate::recording::CycleRecord> {
+        (0..60)
+            .map(|k| {
+                let mut c = crate::recording::CycleRecord {
+                    t_s: k as f64 * 1e-3,
+                    position: 1e-4 * k as f64,
+                    ..Default::default()
+                };
+                f(&mut c, (k as f64 * 0.1).sin());
+                c
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_recording_gives_the_command_column_its_axis_used() {
+        // A torque-commanded drive records no voltage: its command is the torque, not the
+        // (zero) duty.
+        let torque = from_cycles(&cycles(|c, u| c.command_torque = u), "t.mcap".into())
+            .expect("torque record");
+        let want: Vec<f64> = (0..60).map(|k| (k as f64 * 0.1).sin()).collect();
+        assert_eq!(torque.input, want);
+        let duty =
+            from_cycles(&cycles(|c, u| c.command_duty = u), "d.mcap".into()).expect("duty record");
+        assert_eq!(duty.input, want);
+        let volt = from_cycles(
+            &cycles(|c, u| {
+                c.command_voltage = 12.0 * u;
+                c.current = u;
+            }),
+            "v.mcap".into(),
+        )
+        .expect("voltage record");
+        assert_eq!(volt.input[10], 12.0 * want[10]);
+        assert_eq!(volt.current.as_ref().map(|i| i[10]), Some(want[10]));
+        let err = from_cycles(&cycles(|c, u| c.command_velocity = u), "s.mcap".into())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("s.mcap: the axis was commanded a velocity"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -30,11 +30,16 @@ pub struct Step {
     pub delta_bic: f64,
     /// The effect's signature in the residual before it was added.
     pub evidence: String,
+    /// The model after this rung, fitted.
+    #[serde(skip)]
+    pub model: Model,
 }
 
 /// The ladder and the final model.
 #[derive(Debug, Clone)]
 pub struct Discovery {
+    /// The model as given, fitted: the foot of the ladder.
+    pub start: Model,
     /// NRMSE of the model as given (refitted).
     pub nrmse_base: f64,
     /// Effects added, in order.
@@ -56,8 +61,13 @@ pub fn discover(
     progress: &(dyn Fn(usize, &str) + Sync),
 ) -> anyhow::Result<Discovery> {
     let mut current = model.clone();
-    let mut steps = Vec::new();
+    let mut steps: Vec<Step> = Vec::new();
     let mut nrmse_base = None;
+    let (start, _) = fit_spec(&model.spec, data, d, None)?;
+    let start = Model {
+        name: model.name.clone(),
+        spec: start,
+    };
     loop {
         let dg = diagnose(&current, data, d, opts, &|_, _, _| {})?;
         nrmse_base.get_or_insert(dg.nrmse_base);
@@ -71,6 +81,7 @@ pub fn discover(
             let (spec, fit) = fit_spec(&current.spec, data, d, None)?;
             let converged = dg.verdict.is_none();
             return Ok(Discovery {
+                start,
                 nrmse_base: nrmse_base.unwrap_or(dg.nrmse_base),
                 steps,
                 nrmse_final: fit.nrmse,
@@ -94,11 +105,12 @@ pub fn discover(
             holdout_improvement: c.holdout_improvement,
             delta_bic: c.delta_bic,
             evidence: c.evidence.clone(),
+            model: Model {
+                name: format!("{}+{effect}", current.name),
+                spec,
+            },
         });
-        current = Model {
-            name: format!("{}+{effect}", current.name),
-            spec,
-        };
+        current = steps[steps.len() - 1].model.clone();
     }
 }
 

@@ -11,6 +11,7 @@
 //! |---|---|
 //! | [`data`] | CSV and MCAP data sets, column mapping, errors with file/row/column |
 //! | [`model`] | model files (`config/models/*.toml`) and `--family F --with a,b` |
+//! | [`command`] | what the `u` column is (`--command`), per family |
 //! | [`signals`] | zero-phase filtering and derivatives for the regression |
 //! | [`drive`] | the drive constants the data determine, and the declared ones they contradict |
 //! | [`regress`] | inverse-dynamics regression: the balance of forces, linear in its parameters |
@@ -26,6 +27,7 @@
 //! The lab uses the physics and identification layers and reads the daemon's recordings; it
 //! never uses the runtime otherwise.
 
+pub mod command;
 pub mod compare;
 pub mod data;
 pub mod diagnose;
@@ -40,6 +42,7 @@ pub mod report;
 pub mod signals;
 mod svg;
 
+pub use command::Command;
 pub use compare::{compare, Comparison, Mode};
 pub use data::{Columns, Dataset};
 pub use diagnose::{diagnose, Candidate, DiagnoseOptions, Diagnosis};

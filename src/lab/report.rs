@@ -1,11 +1,14 @@
 //! The HTML report: measurement and model over time, residual against velocity, position and
-//! supply, error by regime as bars, and before/after when several models are given.
+//! supply, error by regime as bars, before/after when several models are given, and the ladder of
+//! `discover` when one was run: the error falling rung by rung and the residual before and after
+//! each rung.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
 use super::compare::{compare, Comparison, Mode};
 use super::data::Dataset;
+use super::discover::Discovery;
 use super::model::Model;
 use super::regimes::{breakdown, Breakdown};
 use super::signals::Prepared;
@@ -18,13 +21,15 @@ fn esc(s: &str) -> String {
         .replace('>', "&gt;")
 }
 
-/// Write `index.html` into `dir` for the models on the data; returns the file written.
+/// Write `index.html` into `dir` for the models on the data, with the ladder of `discover` when
+/// one is given; returns the file written.
 pub fn write_report(
     dir: &Path,
     data: &Dataset,
     prep: &Prepared,
     models: &[Model],
     mode: Mode,
+    ladder: Option<&Discovery>,
 ) -> anyhow::Result<std::path::PathBuf> {
     std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("{}: {e}", dir.display()))?;
     let mut results: Vec<(Comparison, Breakdown)> = Vec::new();
@@ -154,8 +159,105 @@ pub fn write_report(
             );
         }
     }
-    html.push_str("</table></body></html>\n");
+    html.push_str("</table>");
+    if let Some(found) = ladder {
+        html.push_str(&ladder_section(found, data, prep)?);
+    }
+    html.push_str("</body></html>\n");
     let path = dir.join("index.html");
     std::fs::write(&path, html).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     Ok(path)
+}
+
+/// The ladder of `discover`: its table, the NRMSE of each rung as bars, and per rung the residual
+/// of the balance (inverse dynamics, the model fitted) before and after the effect was added.
+pub fn ladder_section(
+    found: &Discovery,
+    data: &Dataset,
+    prep: &Prepared,
+) -> anyhow::Result<String> {
+    let mut html = String::new();
+    let _ = write!(
+        html,
+        "<h2>Discover: the ladder</h2><p>From <b>{}</b>, the effect each diagnosis named added and \
+         the model refitted, until no candidate is significant. NRMSE of the diagnosis (free \
+         parameters refitted, rest and motion).</p><table><tr><th>step</th><th>effect added</th>\
+         <th>NRMSE before</th><th>after</th><th>held-out drop</th><th>ΔBIC</th><th>evidence</th></tr>",
+        esc(&found.start.name)
+    );
+    for (i, s) in found.steps.iter().enumerate() {
+        let _ = write!(
+            html,
+            "<tr><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.4}</td><td>{:.1} %</td><td>{:.1}</td>\
+             <td style='text-align:left'>{}</td></tr>",
+            i + 1,
+            esc(&s.effect),
+            s.nrmse_before,
+            s.nrmse,
+            100.0 * s.holdout_improvement,
+            s.delta_bic,
+            esc(&s.evidence)
+        );
+    }
+    html.push_str("</table>");
+    let with: Vec<&str> = found.model.effects().iter().map(|e| e.name()).collect();
+    let _ = write!(
+        html,
+        "<p>{}; final model with {}: NRMSE {:.4}.</p>",
+        if found.steps.is_empty() {
+            "Nothing added: no candidate improves the model significantly".to_string()
+        } else if found.converged {
+            format!(
+                "{} added, then nothing more is significant",
+                found.steps.len()
+            )
+        } else {
+            format!("Stopped after {} steps", found.steps.len())
+        },
+        if with.is_empty() {
+            "no effects".to_string()
+        } else {
+            esc(&with.join(", "))
+        },
+        found.nrmse_final
+    );
+    let mut labels = vec!["as given (refitted)".to_string()];
+    let mut values = vec![found.nrmse_base];
+    for s in &found.steps {
+        labels.push(format!("+{}", s.effect));
+        values.push(s.nrmse);
+    }
+    html.push_str(&bars(
+        "NRMSE step by step",
+        "dimensionless",
+        &labels,
+        &[values],
+        &["NRMSE (diagnosis)".to_string()],
+    ));
+    let mut before = &found.start;
+    for (i, s) in found.steps.iter().enumerate() {
+        let a = compare(before, data, prep, Mode::InverseDynamics, 10)?;
+        let b = compare(&s.model, data, prep, Mode::InverseDynamics, 10)?;
+        let names = [
+            format!("before (NRMSE {:.4})", a.nrmse),
+            format!("after +{} (NRMSE {:.4})", s.effect, b.nrmse),
+        ];
+        let series: Vec<Series> = [(&names[0], &a), (&names[1], &b)]
+            .into_iter()
+            .map(|(name, c)| Series {
+                name,
+                x: c.index.iter().map(|&k| data.time[k]).collect(),
+                y: c.residual(),
+                dots: true,
+            })
+            .collect();
+        html.push_str(&chart(
+            &format!("step {}: +{}, residual before and after", i + 1, s.effect),
+            "time (s)",
+            &format!("residual of the {} ({})", a.quantity, a.unit),
+            &series,
+        ));
+        before = &s.model;
+    }
+    Ok(html)
 }

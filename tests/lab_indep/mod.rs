@@ -7,6 +7,8 @@
 //! amplifier, a sensor whose zero is not the rest position, sample rates of 500 Hz to 2 kHz.
 #![allow(dead_code)]
 
+pub mod gear;
+
 use actuatord::lab::Dataset;
 
 /// A deterministic generator (xorshift64*), separate from the physics' own.

@@ -3,7 +3,7 @@
 //! a line of help each) and a parser with clap's own errors.
 
 use actuatord::bench::rt::Load;
-use actuatord::lab::{FitMethod, Mode};
+use actuatord::lab::{Command, FitMethod, Mode};
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use std::marker::PhantomData;
 
@@ -113,5 +113,27 @@ impl Named for Load {
             Load::Cpu => Some("A busy thread per core"),
             Load::CanFlood => Some("Unrelated frames sent as fast as one thread can"),
         }
+    }
+}
+
+impl Named for Command {
+    fn all() -> &'static [Self] {
+        &Command::ALL
+    }
+    fn name(self) -> &'static str {
+        Command::name(self)
+    }
+    fn help(self) -> Option<&'static str> {
+        Some(match self {
+            Command::Force => "A force in N (linear_axis)",
+            Command::Torque => "A motor torque in N·m: a servo drive in torque mode (motor_gear)",
+            Command::Voltage => {
+                "A terminal voltage in V, limited by the supply; a solenoid's only pulls (linear_axis, solenoid, motor_gear)"
+            }
+            Command::Duty => "A signed valve duty in [-1, 1] (pneumatic)",
+            Command::Current => {
+                "The current of a current-mode amplifier in A (linear_axis, solenoid, motor_gear)"
+            }
+        })
     }
 }

@@ -8,6 +8,7 @@ use clap::{Args, Subcommand};
 
 use crate::choice::Choice;
 
+use actuatord::lab::command::Command;
 use actuatord::lab::compare::{compare, default_mode, holdout, Mode};
 use actuatord::lab::data::{load, Columns, Dataset};
 use actuatord::lab::diagnose::{diagnose, DiagnoseOptions};
@@ -40,6 +41,9 @@ pub struct DataArgs {
     /// CSV column with the current (A); default `i` when present.
     #[arg(long)]
     pub current: Option<String>,
+    /// What the command column is (default: the model's own, or its family's).
+    #[arg(long, value_parser = Choice::<Command>::parser())]
+    pub command: Option<Command>,
     /// Corner of the zero-phase filter for derivatives, Hz (default: a tenth of the sample rate,
     /// at most 50 Hz).
     #[arg(long)]
@@ -159,10 +163,19 @@ pub enum LabCommand {
         /// Output directory.
         #[arg(long)]
         out: PathBuf,
+        /// Run `discover` from the first model (the --family one, or the first --model) and
+        /// draw its ladder: the error rung by rung, the residual before and after each rung.
+        #[arg(long)]
+        discover: bool,
+        /// Smallest relative NRMSE drop that counts for --discover, in and out of sample.
+        #[arg(long, default_value_t = 0.05, requires = "discover")]
+        min_improvement: f64,
     },
 }
 
-fn load_data(a: &DataArgs) -> anyhow::Result<(Dataset, Prepared)> {
+/// Read the data, make every model read its command column as `--command` says, and prepare
+/// the signals.
+fn load_data(a: &DataArgs, models: &mut [&mut Model]) -> anyhow::Result<(Dataset, Prepared)> {
     let cols = Columns {
         time: a.time.clone(),
         input: a.input.clone(),
@@ -170,12 +183,18 @@ fn load_data(a: &DataArgs) -> anyhow::Result<(Dataset, Prepared)> {
         supply: Some(a.supply.clone().unwrap_or_else(|| "supply".into())),
         current: Some(a.current.clone().unwrap_or_else(|| "i".into())),
     };
-    let data = Dataset::concat(
+    let mut data = Dataset::concat(
         a.data
             .iter()
             .map(|p| load(p, &cols))
             .collect::<Result<Vec<_>, _>>()?,
     )?;
+    if let Some(c) = a.command {
+        for m in models.iter_mut() {
+            c.apply(&mut m.spec, &mut data)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", m.name))?;
+        }
+    }
     if let Some(fc) = a.cutoff_hz {
         if !(fc > 0.0 && fc.is_finite()) {
             anyhow::bail!("--cutoff-hz must be > 0, got {fc}");
@@ -235,8 +254,8 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             holdout: fraction,
             json,
         } => {
-            let (d, prep) = load_data(&data)?;
-            let m = load_model(&model)?;
+            let mut m = load_model(&model)?;
+            let (d, prep) = load_data(&data, &mut [&mut m])?;
             let mode = mode.unwrap_or_else(|| default_mode(&m));
             let c = compare(&m, &d, &prep, mode, k)?;
             let b = breakdown(&c, &d, &prep);
@@ -328,8 +347,8 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             min_improvement,
             json,
         } => {
-            let (d, prep) = load_data(&data)?;
-            let m = load_model(&model)?;
+            let mut m = load_model(&model)?;
+            let (d, prep) = load_data(&data, &mut [&mut m])?;
             let opts = DiagnoseOptions {
                 min_improvement,
                 ..DiagnoseOptions::default()
@@ -384,8 +403,8 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             out,
             json,
         } => {
-            let (d, prep) = load_data(&data)?;
-            let m = load_model(&model)?;
+            let mut m = load_model(&model)?;
+            let (d, prep) = load_data(&data, &mut [&mut m])?;
             let opts = DiagnoseOptions {
                 min_improvement,
                 ..DiagnoseOptions::default()
@@ -477,8 +496,8 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             k,
             json,
         } => {
-            let (d, prep) = load_data(&data)?;
-            let m = load_model(&model)?;
+            let mut m = load_model(&model)?;
+            let (d, prep) = load_data(&data, &mut [&mut m])?;
             let opts = FitOptions {
                 method,
                 forgetting,
@@ -607,13 +626,22 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             with,
             mode,
             out,
+            discover: ladder,
+            min_improvement,
         } => {
-            let (d, prep) = load_data(&data)?;
             // A model named by family and effects has default values nobody chose: it enters
             // the report refitted, as `diagnose` judges it.
-            let first = family
-                .map(|f| -> anyhow::Result<Model> {
-                    let m = Model::from_names(&f, &with)?;
+            let mut first = family.map(|f| Model::from_names(&f, &with)).transpose()?;
+            let mut files = model
+                .iter()
+                .map(|p| Model::load(p))
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            let (d, prep) = load_data(
+                &data,
+                &mut first.iter_mut().chain(files.iter_mut()).collect::<Vec<_>>(),
+            )?;
+            let first = first
+                .map(|m| -> anyhow::Result<Model> {
                     let (spec, _) = fit_spec(&m.spec, &d, &prep, None)?;
                     Ok(Model {
                         name: format!("{} (refitted)", m.name),
@@ -621,12 +649,26 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                     })
                 })
                 .transpose()?;
-            let models = first
-                .into_iter()
-                .map(Ok)
-                .chain(model.iter().map(|p| Model::load(p)))
-                .collect::<anyhow::Result<Vec<_>>>()?;
-            let path = actuatord::lab::report::write_report(&out, &d, &prep, &models, mode)?;
+            let models: Vec<Model> = first.into_iter().chain(files).collect();
+            let found = if ladder {
+                let opts = DiagnoseOptions {
+                    min_improvement,
+                    ..DiagnoseOptions::default()
+                };
+                Some(discover(&models[0], &d, &prep, &opts, &|step, effect| {
+                    eprintln!("step {step}: adding {effect}, refitting")
+                })?)
+            } else {
+                None
+            };
+            let path = actuatord::lab::report::write_report(
+                &out,
+                &d,
+                &prep,
+                &models,
+                mode,
+                found.as_ref(),
+            )?;
             println!("wrote {}", path.display());
             Ok(())
         }
