@@ -56,14 +56,17 @@ fn comparison_reaches_the_papers_figures() {
     assert!(amp.pid_fc >= -75.0 && amp.pid_fc <= -25.0, "{amp}");
     assert_eq!(amp.verdict_robust, "inside");
     assert_eq!(amp.verdict_pid_fc, "inside");
-    // -3 dB bandwidth at 1°: the robust loop reaches the paper's 61 rad/s (issue: ≥ 55) and
-    // stays above PID+FC, as in the paper.
+    // -3 dB bandwidth at 1°: the robust loop reaches the paper's 61 rad/s (issue: ≥ 55);
+    // PID+FC, held up by stiction at each reversal, lands within ±50 % of the paper's 16.6.
     let b1 = find(&rows, "sweep 1°", "-3 dB bandwidth");
     assert!(b1.robust >= 55.0, "{b1}");
-    assert!(b1.robust > b1.pid_fc, "{b1}");
-    // At 10° the bridge's 24 V limit the robust loop's bandwidth below its 1° figure but it
-    // still reaches beyond the 20 Hz test (125.7 rad/s); PID+FC stays below 20 Hz there.
+    assert!(b1.pid_fc >= 8.3 && b1.pid_fc <= 24.9, "{b1}");
+    assert_eq!(b1.verdict_pid_fc, "inside");
+    // Stiction is a small-amplitude effect: PID+FC's 10° bandwidth is several times its 1°.
     let b10 = find(&rows, "sweep 10°", "-3 dB bandwidth");
+    assert!(b10.pid_fc > 2.0 * b1.pid_fc, "{b10} {b1}");
+    // At 10° the bridge's 24 V keep the robust loop's bandwidth below its 1° figure, but it
+    // still reaches beyond the 20 Hz test (125.7 rad/s); PID+FC stays below 20 Hz there.
     assert!(b10.robust > 125.7 && b10.pid_fc < 125.7, "{b10}");
     let json = serde_json::to_string(&rows).expect("serialise");
     assert!(json.contains("\"paper_pid_fc\":5.67"));
