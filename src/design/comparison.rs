@@ -150,7 +150,8 @@ pub fn paper_band(paper: f64) -> (f64, f64) {
 }
 
 /// `inside` the band of [`paper_band`], else `better` or `worse` by the metric's sense (a phase
-/// lag is better smaller, an amplitude error or a bandwidth larger), `no figure` without one.
+/// lag is better smaller, a bandwidth larger, an amplitude error nearer zero: an overshoot beyond
+/// the band is worse, not better), `no figure` without one.
 pub fn verdict(metric: &str, ours: f64, paper: Option<f64>) -> String {
     let Some(p) = paper else {
         return "no figure".into();
@@ -160,6 +161,12 @@ pub fn verdict(metric: &str, ours: f64, paper: Option<f64>) -> String {
         "failed"
     } else if ours >= lo && ours <= hi {
         "inside"
+    } else if metric == "amplitude error" {
+        if (lo <= 0.0 && hi >= 0.0) || ours.abs() >= lo.abs().min(hi.abs()) {
+            "worse"
+        } else {
+            "better"
+        }
     } else if (metric == "phase lag") == (ours < lo) {
         "better"
     } else {
@@ -501,6 +508,10 @@ mod tests {
         assert_eq!(verdict("amplitude error", -5.0, Some(0.0)), "inside");
         // PID+FC at 20 Hz loses about 50 %: band -75..-25 %.
         assert_eq!(verdict("amplitude error", -10.0, Some(-50.0)), "better");
+        // An overshoot is not a better amplitude.
+        assert_eq!(verdict("amplitude error", 40.0, Some(0.0)), "worse");
+        assert_eq!(verdict("amplitude error", 30.0, Some(-50.0)), "worse");
+        assert_eq!(verdict("amplitude error", -80.0, Some(-50.0)), "worse");
         assert_eq!(verdict("-3 dB bandwidth", 13.6, Some(61.0)), "worse");
         assert_eq!(verdict("-3 dB bandwidth", 100.0, Some(61.0)), "better");
         assert_eq!(verdict("-3 dB bandwidth", 13.6, None), "no figure");
