@@ -116,7 +116,7 @@ impl DesignOptions {
     ///   leaves 1.9° of lag against friction and payload (the paper's 1.76°); 70 rad/s with the
     ///   backlash radius 0.5 and `k_T = 100` gives 2.1° but +16 % of amplitude at 20 Hz;
     /// - `k_u = 0.0003 /V`: the voltage is limited by the bridge, not by the weight (γ does not
-    ///   change between 0.0001 and 0.001);
+    ///   change between 0.0001 and 0.0003);
     /// - backlash radius 0.1: `K_g` within ±10 %; the contact of the light lever is not the
     ///   limit here, and a wider radius costs lag and amplitude (radius 0.3: 2.2° and +10 %,
     ///   0.5: 2.5° and +12 %);
