@@ -1,40 +1,114 @@
 //! The paper's comparison in simulation: PID + friction compensation versus the robust
-//! controller on the `motor_gear` plant.
+//! controller on the plant rebuilt for Bao, Mao & Luo (2016), each figure held against the
+//! paper's.
 
 use std::path::Path;
 
-use actuatord::design::{design_robust, run_comparison, ComparisonConfig, ComparisonTable};
+use actuatord::control::robust::DesignOptions;
+use actuatord::design::{
+    design_robust_with, run_comparison, ComparisonConfig, ComparisonRow, ComparisonTable,
+};
 
-#[test]
-fn comparison_table_has_the_papers_rows_and_plausible_figures() {
-    let d = design_robust(Path::new("config/plants/motor_gear.toml")).expect("design");
+fn rows() -> Vec<ComparisonRow> {
+    let d = design_robust_with(
+        Path::new("config/plants/motor_gear_bao.toml"),
+        DesignOptions::bao_2016(),
+    )
+    .expect("design");
+    assert!(d.synthesis.nominal_discrete_stable);
+    assert_eq!(d.synthesis.vertices_stable.0, d.synthesis.vertices_stable.1);
     let rows = run_comparison(&d, &ComparisonConfig::default()).expect("comparison");
     eprintln!("{}", ComparisonTable(&rows));
+    rows
+}
+
+fn find<'a>(rows: &'a [ComparisonRow], test: &str, metric: &str) -> &'a ComparisonRow {
+    rows.iter()
+        .find(|r| r.test == test && r.metric == metric)
+        .expect("row present")
+}
+
+#[test]
+fn comparison_reaches_the_papers_figures() {
+    let rows = rows();
     // 4 sine tests × (amplitude error, phase lag) + 2 bandwidths.
     assert_eq!(rows.len(), 10);
     for r in &rows {
         assert!(r.pid_fc.is_finite() && r.robust.is_finite(), "{r}");
     }
-    let find = |test: &str, metric: &str| {
-        rows.iter()
-            .find(|r| r.test == test && r.metric == metric)
-            .expect("row present")
-    };
-    // 2 Hz, 10°: both track (amplitude within 30 %, lag below 45°).
-    let a = find("sine 2 Hz, 10°", "amplitude error");
-    let p = find("sine 2 Hz, 10°", "phase lag");
-    for (amp, lag) in [(a.pid_fc, p.pid_fc), (a.robust, p.robust)] {
-        assert!(
-            amp.abs() < 30.0 && lag > 0.0 && lag < 45.0,
-            "{amp} % {lag}°"
-        );
-    }
-    // The paper's direction: less phase lag at 2 Hz and a wider 10° bandwidth for the robust
-    // controller.
-    assert!(p.robust < p.pid_fc, "{p}");
-    let b = find("sweep 10°", "-3 dB bandwidth");
-    assert!(b.robust > b.pid_fc, "{b}");
+    // 2 Hz, 10°: the paper's 1.76° (robust) and 5.67° (PID+FC); the issue's bound 2.5° for the
+    // robust loop, ±50 % of the paper's figure for PID+FC; neither loses or gains more than
+    // 10 % amplitude (the paper: no amplitude loss at 2 Hz).
+    let lag = find(&rows, "sine 2 Hz, 10°", "phase lag");
+    assert!(lag.robust > 0.0 && lag.robust <= 2.5, "{lag}");
+    assert!(lag.pid_fc >= 2.835 && lag.pid_fc <= 8.505, "{lag}");
+    assert_eq!(lag.verdict_robust, "inside");
+    assert_eq!(lag.verdict_pid_fc, "inside");
+    let amp2 = find(&rows, "sine 2 Hz, 10°", "amplitude error");
+    assert!(
+        amp2.robust.abs() < 10.0 && amp2.pid_fc.abs() < 10.0,
+        "{amp2}"
+    );
+    // 20 Hz, 10°: the robust loop keeps the amplitude (within ±10 %), PID+FC loses about half
+    // (-75..-25 %).
+    let amp = find(&rows, "sine 20 Hz, 10°", "amplitude error");
+    assert!(amp.robust >= -10.0 && amp.robust <= 10.0, "{amp}");
+    assert!(amp.pid_fc >= -75.0 && amp.pid_fc <= -25.0, "{amp}");
+    assert_eq!(amp.verdict_robust, "inside");
+    assert_eq!(amp.verdict_pid_fc, "inside");
+    // -3 dB bandwidth at 1°: the robust loop reaches the paper's 61 rad/s (issue: ≥ 55);
+    // PID+FC, held up by stiction at each reversal, lands within ±50 % of the paper's 16.6.
+    let b1 = find(&rows, "sweep 1°", "-3 dB bandwidth");
+    assert!(b1.robust >= 55.0, "{b1}");
+    assert!(b1.pid_fc >= 8.3 && b1.pid_fc <= 24.9, "{b1}");
+    assert_eq!(b1.verdict_pid_fc, "inside");
+    // Stiction is a small-amplitude effect: PID+FC's 10° bandwidth is several times its 1°.
+    let b10 = find(&rows, "sweep 10°", "-3 dB bandwidth");
+    assert!(b10.pid_fc > 2.0 * b1.pid_fc, "{b10} {b1}");
+    // At 10° the bridge's 24 V keep the robust loop's bandwidth below its 1° figure, but it
+    // still reaches beyond the 20 Hz test (125.7 rad/s); PID+FC stays below 20 Hz there.
+    assert!(b10.robust > 125.7 && b10.pid_fc < 125.7, "{b10}");
     let json = serde_json::to_string(&rows).expect("serialise");
     assert!(json.contains("\"paper_pid_fc\":5.67"));
     assert!(json.contains("\"verdict_robust\":"));
+}
+
+/// Peak armature voltage of the 10°, 20 Hz sine by inverse dynamics of the rigid drive, written
+/// here independently of the plant model: `U = R_a (J θ'' + F_C sgn θ' + f_v θ' + T_l) / (h K_T)
+/// + K_e h θ'`, `J = J_l + J_g + h² J_m` referred to the load.
+fn peak_voltage_20hz_10deg(plant: &str) -> (f64, f64) {
+    let spec = actuatord::physics::load_spec(Path::new(plant)).expect("plant file");
+    let p = actuatord::control::robust::MotorGearParams::from_spec(&spec).expect("params");
+    let (a, w) = (10f64.to_radians(), 2.0 * std::f64::consts::PI * 20.0);
+    let j = p.load_inertia_kg_m2 + p.gear_inertia_kg_m2 + p.ratio * p.ratio * p.motor_inertia_kg_m2;
+    let mut peak: f64 = 0.0;
+    for k in 0..2000 {
+        let t = k as f64 / 2000.0 / 20.0;
+        let (th, v, acc) = (
+            a * (w * t).sin(),
+            a * w * (w * t).cos(),
+            -a * w * w * (w * t).sin(),
+        );
+        let friction = if v >= 0.0 {
+            p.coulomb_pos_nm + p.viscous_pos_nm_s_per_rad * v
+        } else {
+            -p.coulomb_neg_nm + p.viscous_neg_nm_s_per_rad * v
+        };
+        let load = p.payload_max_nm * th / p.payload_full_scale_rad;
+        let u = p.resistance_ohm * (j * acc + friction + load)
+            / (p.ratio * p.torque_constant_nm_per_a)
+            + p.back_emf_v_s_per_rad * p.ratio * v;
+        peak = peak.max(u.abs());
+    }
+    (peak, p.u_max_v)
+}
+
+#[test]
+fn the_bao_plant_can_track_20_hz_at_10_degrees_and_the_daemons_cannot() {
+    // docs/papers.md: the rebuilt plant needs about 19 V of its 24 V bridge; the heavier reading
+    // of Table 1 (the daemon's reference plant) needs far more than its bridge gives.
+    let (bao, limit) = peak_voltage_20hz_10deg("config/plants/motor_gear_bao.toml");
+    assert!(bao < 0.85 * limit, "{bao} V of {limit} V");
+    let (heavy, limit) = peak_voltage_20hz_10deg("config/plants/motor_gear.toml");
+    assert!(heavy > 3.0 * limit, "{heavy} V of {limit} V");
 }

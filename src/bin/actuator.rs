@@ -208,10 +208,11 @@ enum DesignCommand {
 
 #[derive(Subcommand, Debug)]
 enum BenchCommand {
-    /// PID + friction compensation against the robust controller on the simulated motor_gear
-    /// plant: sinusoids at 2 and 20 Hz, two amplitudes, bandwidth, beside the paper's figures.
+    /// PID + friction compensation against the robust controller (weights of Bao et al. 2016's
+    /// comparison) on a simulated motor_gear plant: sinusoids at 2 and 20 Hz, two amplitudes,
+    /// bandwidth, beside the paper's figures.
     Robust {
-        #[arg(long, default_value = "config/plants/motor_gear.toml")]
+        #[arg(long, default_value = "config/plants/motor_gear_bao.toml")]
         plant: PathBuf,
         /// Print JSON (a list of rows) instead of a table.
         #[arg(long)]
@@ -559,7 +560,10 @@ fn run(args: Args) -> anyhow::Result<()> {
         Command::Bench {
             what: BenchCommand::Robust { plant, json },
         } => {
-            let design = actuatord::design::design_robust(&plant)?;
+            let design = actuatord::design::design_robust_with(
+                &plant,
+                actuatord::control::robust::DesignOptions::bao_2016(),
+            )?;
             let rows = actuatord::design::run_comparison(
                 &design,
                 &actuatord::design::ComparisonConfig::default(),
