@@ -85,10 +85,13 @@ struct Loop {
     before_settled: f64,
     after_settled: f64,
     tune_output: String,
+    /// Where the loop's files are (the fit, the tuned configuration, what `tune` wrote).
+    dir: tempfile::TempDir,
 }
 
 fn the_loop(
     family: &str,
+    with: &str,
     reference: &str,
     plant: &str,
     tour: &[f64],
@@ -116,7 +119,7 @@ fn the_loop(
             "--family",
             family,
             "--with",
-            "spring,viscous,coulomb",
+            with,
             "--out",
             &p(&fitted),
         ],
@@ -165,6 +168,7 @@ fn the_loop(
         before_settled: settled_error(&before, tour.len(), dt_s),
         after_settled: settled_error(&after, tour.len(), dt_s),
         tune_output,
+        dir,
     };
     println!(
         "{family}: RMS following error {:.1} µm -> {:.1} µm ({:.1}x), settled error {:.1} µm -> {:.1} µm",
@@ -177,24 +181,26 @@ fn the_loop(
     l
 }
 
+/// The Coulomb levels of a linear family's plant file.
+const N: [&str; 2] = ["coulomb.coulomb_pos_n", "coulomb.coulomb_neg_n"];
+
 /// The tuned compensation in command units against the plant file's Coulomb friction over its
-/// drive gain, within 10 %.
+/// drive gain, within `tolerance` (relative).
 fn check_compensation(
     l: &Loop,
     plant: &str,
+    names: [&str; 2],
+    tolerance: f64,
     drive_gain: &dyn Fn(&actuatord::physics::PlantSpec) -> Option<f64>,
 ) {
     let p = actuatord::physics::load_spec(&root().join(plant)).expect("plant");
     let k = drive_gain(&p).expect("drive gain");
-    for (i, name) in ["coulomb.coulomb_pos_n", "coulomb.coulomb_neg_n"]
-        .iter()
-        .enumerate()
-    {
+    for (i, name) in names.iter().enumerate() {
         let truth = p.get(name).expect("coulomb") / k;
         let tuned = l.compensation[i];
         println!("{name}: tuned {tuned:.4} command units, plant {truth:.4}");
         assert!(
-            (tuned - truth).abs() < 0.1 * truth,
+            (tuned - truth).abs() < tolerance * truth,
             "{name}: {tuned} vs {truth}"
         );
     }
@@ -205,6 +211,7 @@ fn linear_axis_tuned_from_its_fit_tracks_at_least_twice_as_well() {
     let tour = [0.0, 0.01, -0.01, 0.02, 0.0, -0.02, 0.015, -0.005, 0.0];
     let l = the_loop(
         "linear_axis",
+        "spring,viscous,coulomb",
         "config/linear_axis.toml",
         "tests/data/linear_axis_heavy.toml",
         &tour,
@@ -219,7 +226,7 @@ fn linear_axis_tuned_from_its_fit_tracks_at_least_twice_as_well() {
     );
     assert!(l.after_settled <= 0.5 * l.before_settled);
     // The friction the compensation holds, in volts, is the plant's: 6 N over 6 N/V.
-    check_compensation(&l, "tests/data/linear_axis_heavy.toml", &|p| {
+    check_compensation(&l, "tests/data/linear_axis_heavy.toml", N, 0.1, &|p| {
         p.get("linear_axis.force_gain_n_per_v")
     });
     // The report states the goal, the margins per direction and the robustness.
@@ -243,6 +250,7 @@ fn solenoid_tuned_from_its_fit_settles_closer() {
     ];
     let l = the_loop(
         "solenoid",
+        "spring,viscous,coulomb",
         "config/solenoid.toml",
         "tests/data/solenoid_heavy.toml",
         &tour,
@@ -272,9 +280,112 @@ fn solenoid_tuned_from_its_fit_settles_closer() {
     assert!(l
         .tune_output
         .contains("fault-symptom table for the fitted plant"));
-    check_compensation(&l, "tests/data/solenoid_heavy.toml", &|p| {
+    check_compensation(&l, "tests/data/solenoid_heavy.toml", N, 0.1, &|p| {
         Some(p.get("solenoid.current_gain_a_per_v")? * p.get("solenoid.force_constant_n_per_a")?)
     });
+}
+
+/// The number after `label` on the line of `text` that starts with `line`.
+fn figure_after(text: &str, line: &str, label: &str) -> f64 {
+    text.lines()
+        .find(|l| l.trim_start().starts_with(line))
+        .and_then(|l| l.split(label).nth(1))
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|v| v.trim_end_matches([',', '°']).parse().ok())
+        .unwrap_or_else(|| panic!("no {label} on the line {line:?} in:\n{text}"))
+}
+
+#[test]
+fn motor_gear_tuned_from_its_fit_tracks_at_least_twice_as_well_and_hands_over_to_design_robust() {
+    // The reference configuration's own tour: ramps of 2 rad/s to 0.2, 0.21, -0.3 and 0 rad.
+    let tour = [0.0, 0.2, 0.21, -0.3, 0.0];
+    let plant = "tests/data/motor_gear_heavy.toml";
+    let l = the_loop(
+        "motor_gear",
+        "viscous,coulomb,payload,backlash",
+        "config/motor_gear.toml",
+        plant,
+        &tour,
+        1.0,
+        &["--robust-plant", "DIR/robust_plant.toml"],
+    );
+    assert!(
+        l.after_rms <= 0.5 * l.before_rms,
+        "tuned {} against untuned {}",
+        l.after_rms,
+        l.before_rms
+    );
+    assert!(l.after_settled <= 0.5 * l.before_settled);
+    // The design keeps its margins on the flexible model (shaft, gear contact) it was not
+    // placed on, and over the fitted intervals.
+    let out = &l.tune_output;
+    let flexible = "on the flexible model";
+    assert!(figure_after(out, flexible, "|z|max ") < 1.0, "{out}");
+    assert!(figure_after(out, flexible, "gain margin ") >= 2.0, "{out}");
+    assert!(
+        figure_after(out, flexible, "phase margin ") >= 30.0,
+        "{out}"
+    );
+    assert!(figure_after(out, "robustness over", "gain margin >= ") > 2.0);
+    assert!(figure_after(out, "robustness over", "phase margin >= ") > 30.0);
+    assert!(out.contains("backlash: the fitted play"), "{out}");
+    // The axis had no friction compensation: tune adds one from the fitted friction, in volts
+    // the plant's Coulomb torque over h K_T / R_a. The fit's levels on a drive with play and a
+    // varying ratio (which the model leaves out) come out within 15 %.
+    assert!(out.contains("axis.friction_compensation.alpha"), "{out}");
+    check_compensation(
+        &l,
+        plant,
+        ["coulomb.coulomb_pos_nm", "coulomb.coulomb_neg_nm"],
+        0.15,
+        &|p| {
+            Some(
+                p.get("motor_gear.ratio")? * p.get("motor_gear.torque_constant_nm_per_a")?
+                    / p.get("motor_gear.resistance_ohm")?,
+            )
+        },
+    );
+
+    // The hand-over: the fitted plant file `tune --robust-plant` wrote is one `design robust`
+    // designs on, and the H-infinity controller runs the plant without a fault.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let written = l.dir.path().join("robust_plant.toml");
+    assert!(out.contains("actuator design robust --plant"), "{out}");
+    let p = |p: &Path| p.display().to_string();
+    lab_common::actuator(
+        dir.path(),
+        &[
+            "design",
+            "robust",
+            "--plant",
+            &p(&written),
+            "--out",
+            &p(&dir.path().join("controller.toml")),
+        ],
+    );
+    let text = std::fs::read_to_string(root().join("config/motor_gear.toml")).expect("config");
+    let mut doc: toml_edit::DocumentMut = text.parse().expect("TOML");
+    let controller = doc["axis"]
+        .as_array_of_tables_mut()
+        .and_then(|a| a.get_mut(0))
+        .and_then(|a| a["controller"].as_table_mut())
+        .expect("[axis.controller]");
+    controller.remove("q_per_m");
+    controller.remove("p");
+    controller["state_space_file"] = toml_edit::value("controller.toml");
+    let config_path = dir.path().join("robust.toml");
+    std::fs::write(&config_path, doc.to_string()).expect("written");
+    let robust = Config::load(&config_path).expect("the robust configuration loads");
+    let robust_rms = rms_error(&run(&robust, &root().join(plant)));
+    println!(
+        "motor_gear: design robust on the fitted plant: RMS following error {:.1} µm",
+        robust_rms * 1e6
+    );
+    assert!(
+        robust_rms < l.before_rms,
+        "{robust_rms} against {}",
+        l.before_rms
+    );
 }
 
 #[test]

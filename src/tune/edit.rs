@@ -80,6 +80,13 @@ impl Editor {
         if t.get(section).is_none() {
             let mut s = Table::new();
             s.set_implicit(false);
+            // Written beside the controller's table: at the file's end it would belong to the
+            // last `[[axis]]`, whichever this one is.
+            s.set_position(
+                t.get("controller")
+                    .and_then(|c| c.as_table())
+                    .and_then(|c| c.position()),
+            );
             t.insert(section, Item::Table(s));
         }
         let Some(s) = t.get_mut(section).and_then(|s| s.as_table_like_mut()) else {

@@ -22,5 +22,5 @@ pub mod edit;
 pub mod fitted;
 pub mod plant;
 
-pub use axis::{regenerate_fault_table, tune, Goal, TuneOptions, Tuning};
+pub use axis::{regenerate_fault_table, robust_plant_file, tune, Goal, TuneOptions, Tuning};
 pub use fitted::Fitted;
