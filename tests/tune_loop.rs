@@ -416,6 +416,42 @@ fn tune_refuses_a_model_whose_intervals_are_too_wide() {
         "{err}"
     );
     assert!(!dir.path().join("tuned.toml").exists());
+
+    // A geared drive: its viscous slope is judged beside the back-EMF's damping (±40 % of a
+    // slope that is a tenth of the damping passes), its load inertia on its own (±60 % does not).
+    let rigid =
+        std::fs::read_to_string(root().join("config/models/motor_gear_rigid.toml")).expect("model");
+    let body = rigid.split("\n[lab]").next().expect("model");
+    let header = "# viscous.damping_pos_nm_s_per_rad = 5.0e-2, 95 % interval [3.0e-2, 7.0e-2]\n";
+    let tune = |text: &str| {
+        std::fs::write(&model, text).expect("model written");
+        std::process::Command::new(env!("CARGO_BIN_EXE_actuator"))
+            .current_dir(dir.path())
+            .args(["tune", "--model"])
+            .arg(&model)
+            .arg("--config")
+            .arg(root().join("config/motor_gear.toml"))
+            .args(["--out", "tuned.toml"])
+            .output()
+            .expect("actuator runs")
+    };
+    let out = tune(&format!("{header}{body}"));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::remove_file(dir.path().join("tuned.toml")).expect("written");
+    let out = tune(&format!(
+        "{header}# motor_gear.load_inertia_kg_m2 = 1.0e-2, 95 % interval [4.0e-3, 1.6e-2]\n{body}"
+    ));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("motor_gear.load_inertia_kg_m2") && err.contains("too wide to design from"),
+        "{err}"
+    );
+    assert!(!dir.path().join("tuned.toml").exists());
 }
 
 /// The `actuator ...` lines of the README's code block under `## Tuning from the fitted model`.

@@ -137,3 +137,28 @@ impl Editor {
         });
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_new_section_goes_to_its_own_axis_of_several() {
+        let text = "[[axis]]\nname = \"a\"\n[axis.controller]\nq_per_m = [1.0]\n\
+                    [[axis.setpoints]]\nat_s = 1.0\n\
+                    [[axis]]\nname = \"b\"\n[axis.controller]\nq_per_m = [2.0]\n";
+        let doc: DocumentMut = text.parse().expect("TOML");
+        let mut ed = Editor::new(doc, 0);
+        ed.set_f64("friction_compensation", "alpha", 0.8, "test");
+        let back: toml::Table = ed.doc.to_string().parse().expect("TOML");
+        let axes = back["axis"].as_array().expect("axes");
+        assert_eq!(
+            axes[0]["friction_compensation"]["alpha"].as_float(),
+            Some(0.8)
+        );
+        assert!(axes[1].get("friction_compensation").is_none());
+        assert_eq!(axes[0]["setpoints"].as_array().map(|s| s.len()), Some(1));
+        assert_eq!(ed.changes.len(), 1);
+        assert_eq!(ed.changes[0].before, "absent");
+    }
+}

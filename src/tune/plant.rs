@@ -286,3 +286,47 @@ pub fn corners(f: &Fitted, names: &[&str]) -> Vec<Vec<(String, f64)>> {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::PlantSpec;
+
+    /// The project's geared drive at a fixed ratio (the rigid model has no varying ratio).
+    fn motor_gear() -> PlantSpec {
+        let text = include_str!("../../config/plants/motor_gear.toml")
+            .replace("[varying_ratio]", "[unused]")
+            .replace("max_angle_rad = 1.3", "");
+        let text = text.replace("[unused]\n", "");
+        PlantSpec::from_toml(&text, "motor_gear.toml").expect("plant")
+    }
+
+    #[test]
+    fn the_rigid_gear_model_is_the_flexible_one_below_the_contact_mode() {
+        let spec = motor_gear();
+        assert!(spec.get("varying_ratio.max_angle_rad").is_none());
+        let rigid = AxisModel::with_values(Family::MotorGear, &|n| spec.get(n)).expect("model");
+        // J_l + J_g + h² J_m, b + h² K_T K_e / R_a, h K_T / R_a, T_lmax / θ_full.
+        assert!((rigid.mass - (0.01 + 0.02 + 900.0 * 1e-5)).abs() < 1e-12);
+        assert!((rigid.damping[0] - (0.05 + 900.0 * 0.03 * 0.03 / 1.55)).abs() < 1e-12);
+        assert!((rigid.gain[0] - 30.0 * 0.03 / 1.55).abs() < 1e-12);
+        assert!((rigid.stiffness - 1.0).abs() < 1e-12);
+        let flex = flexible(&spec).expect("model").expect("motor_gear");
+        let r = rigid.linear(Direction::Positive);
+        for w in [0.3, 3.0, 30.0] {
+            let (a, b) = (r.response(w), flex.response(w));
+            assert!((a - b).norm() < 0.05 * b.norm(), "{w} rad/s: {a} vs {b}");
+        }
+        // At the contact mode (about 260 rad/s here) the two part.
+        let w = 260.0;
+        let (a, b) = (r.response(w), flex.response(w));
+        assert!((a - b).norm() > 0.5 * a.norm(), "{a} vs {b}");
+        // No flexible model for another family.
+        let solenoid = crate::physics::load_spec(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/config/plants/solenoid.toml"
+        )))
+        .expect("solenoid");
+        assert!(flexible(&solenoid).expect("no error").is_none());
+    }
+}
