@@ -1,8 +1,9 @@
 //! The loop record → fit → tune → run → compare, on plants the reference configurations were
-//! not made for (tests/data/*_heavy.toml: more mass, another spring, a weaker drive, three
-//! times the friction). The reference configuration runs the plant in lock-step and the daemon's
-//! record is written as the lab's CSV; `actuator fit` and `actuator tune` run as a user runs
-//! them; the tuned file passes the daemon's validation and runs the same tour again.
+//! not made for (tests/data/*_heavy.toml: more mass or load inertia, another spring or payload,
+//! a weaker drive, three times the friction). The reference configuration runs the plant in
+//! lock-step and the daemon's record is written as the lab's CSV; `actuator fit` and `actuator
+//! tune` run as a user runs them; the tuned file passes the daemon's validation and runs the
+//! same tour again.
 
 use std::path::Path;
 
@@ -454,8 +455,9 @@ fn tune_refuses_a_model_whose_intervals_are_too_wide() {
     assert!(!dir.path().join("tuned.toml").exists());
 }
 
-/// The `actuator ...` lines of the README's code block under `## Tuning from the fitted model`.
-fn readme_walkthrough() -> (Vec<Vec<String>>, String) {
+/// The `actuator ...` lines of the README's code blocks under `## Tuning from the fitted
+/// model`, one list per block.
+fn readme_walkthrough() -> (Vec<Vec<Vec<String>>>, String) {
     let readme = std::fs::read_to_string(root().join("README.md")).expect("README.md");
     let section = readme
         .split("\n## Tuning from the fitted model")
@@ -463,17 +465,19 @@ fn readme_walkthrough() -> (Vec<Vec<String>>, String) {
         .and_then(|s| s.split("\n## ").next())
         .expect("a tuning section")
         .to_string();
-    let block = section
+    let blocks = section
         .split("```sh\n")
-        .nth(1)
-        .and_then(|b| b.split("```").next())
-        .expect("a sh code block");
-    let lines = block
-        .lines()
-        .filter(|l| l.starts_with("actuator "))
-        .map(|l| l.split_whitespace().skip(1).map(String::from).collect())
+        .skip(1)
+        .filter_map(|b| b.split("```").next())
+        .map(|block| {
+            block
+                .lines()
+                .filter(|l| l.starts_with("actuator "))
+                .map(|l| l.split_whitespace().skip(1).map(String::from).collect())
+                .collect()
+        })
         .collect();
-    (lines, section)
+    (blocks, section)
 }
 
 /// The RMS following error `sim --record` reports, in µm.
@@ -509,25 +513,45 @@ fn the_readme_tuning_walkthrough_runs_and_its_figures_hold() {
             }
         }
     }
-    let (steps, section) = readme_walkthrough();
-    assert_eq!(steps.len(), 4, "record, fit, tune, run: {steps:?}");
-    let mut figures = Vec::new();
-    for args in &steps {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_actuator"))
-            .current_dir(dir.path())
-            .args(args)
-            .output()
-            .expect("actuator runs");
-        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-        assert!(
-            out.status.success(),
-            "actuator {}: {stderr}",
-            args.join(" ")
-        );
-        if args[0] == "sim" {
-            figures.push(reported_rms(&stderr));
+    let (blocks, section) = readme_walkthrough();
+    assert_eq!(
+        blocks.len(),
+        2,
+        "the linear axis and the geared drive: {blocks:?}"
+    );
+    assert_eq!(
+        blocks[0].len(),
+        4,
+        "record, fit, tune, run: {:?}",
+        blocks[0]
+    );
+    assert_eq!(
+        blocks[1].len(),
+        5,
+        "record, fit, tune, run, design robust: {:?}",
+        blocks[1]
+    );
+    let run_block = |steps: &[Vec<String>]| -> Vec<f64> {
+        let mut figures = Vec::new();
+        for args in steps {
+            let out = std::process::Command::new(env!("CARGO_BIN_EXE_actuator"))
+                .current_dir(dir.path())
+                .args(args)
+                .output()
+                .expect("actuator runs");
+            let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+            assert!(
+                out.status.success(),
+                "actuator {}: {stderr}",
+                args.join(" ")
+            );
+            if args[0] == "sim" {
+                figures.push(reported_rms(&stderr));
+            }
         }
-    }
+        figures
+    };
+    let figures = run_block(&blocks[0]);
     let (before, after) = (figures[0], figures[1]);
     println!("README walkthrough: {before} µm -> {after} µm");
     assert!(after <= 0.5 * before, "{after} against {before}");
@@ -546,6 +570,27 @@ fn the_readme_tuning_walkthrough_runs_and_its_figures_hold() {
         assert!(
             (stated - measured).abs() <= 0.02 * measured,
             "README says {stated} µm, the run gives {measured} µm"
+        );
+    }
+
+    // The geared drive: tuned at least twice as well, the robust controller designed on the
+    // written plant, and the figures the README states.
+    let figures = run_block(&blocks[1]);
+    let (before, after) = (figures[0], figures[1]);
+    println!("README motor_gear walkthrough: {before} µrad -> {after} µrad");
+    assert!(after <= 0.5 * before, "{after} against {before}");
+    Config::load(&dir.path().join("tuned.toml")).expect("tuned.toml passes validation");
+    assert!(dir.path().join("controller.toml").exists());
+    for (stated, measured) in [
+        (readme_figure(&section, "goes from "), before),
+        (
+            readme_figure(&section, "the reference configuration to "),
+            after,
+        ),
+    ] {
+        assert!(
+            (stated - measured).abs() <= 0.02 * measured,
+            "README says {stated} µrad, the run gives {measured} µrad"
         );
     }
 }
