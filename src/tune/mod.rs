@@ -8,7 +8,7 @@
 //! | file | job |
 //! |---|---|
 //! | [`fitted`] | the fitted model file and its 95 % intervals |
-//! | [`plant`] | the linear model per direction, and the corners of the intervals |
+//! | [`plant`] | the linear model per direction (a geared drive's also flexible), the corners of the intervals |
 //! | [`design`] | pole placement of the daemon's discrete controller; poles, step, margins |
 //! | [`edit`] | writing values into the configuration, keeping its comments; what changed |
 //! | [`axis`] | the whole tuning of one axis: design, robustness, friction, supervision, schedule |
