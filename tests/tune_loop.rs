@@ -78,6 +78,22 @@ fn settled_error(samples: &[LockStepSample], tour: usize, dt_s: f64) -> f64 {
     sum / n as f64
 }
 
+/// Largest peak-to-peak motion of the true position over the last `window_s` before each
+/// set-point change and the end: how much the axis still moves once it holds.
+fn hold_motion(samples: &[LockStepSample], tour: usize, dt_s: f64, window_s: f64) -> f64 {
+    (1..=tour)
+        .map(|k| {
+            let end = 1.0 + dt_s * k as f64;
+            let y: Vec<f64> = samples
+                .iter()
+                .filter(|s| s.record.t_s < end && s.record.t_s >= end - window_s)
+                .map(|s| s.truth.position)
+                .collect();
+            y.iter().copied().fold(f64::MIN, f64::max) - y.iter().copied().fold(f64::MAX, f64::min)
+        })
+        .fold(0.0, f64::max)
+}
+
 struct Loop {
     /// The tuned friction compensation per direction in command units (level / force gain).
     compensation: [f64; 2],
@@ -85,6 +101,8 @@ struct Loop {
     after_rms: f64,
     before_settled: f64,
     after_settled: f64,
+    /// [`hold_motion`] of the tuned run over the last 0.3 s of each hold.
+    after_hold_motion: f64,
     tune_output: String,
     /// Where the loop's files are (the fit, the tuned configuration, what `tune` wrote).
     dir: tempfile::TempDir,
@@ -168,6 +186,7 @@ fn the_loop(
         after_rms: rms_error(&after),
         before_settled: settled_error(&before, tour.len(), dt_s),
         after_settled: settled_error(&after, tour.len(), dt_s),
+        after_hold_motion: hold_motion(&after, tour.len(), dt_s, 0.3),
         tune_output,
         dir,
     };
@@ -329,7 +348,24 @@ fn motor_gear_tuned_from_its_fit_tracks_at_least_twice_as_well_and_hands_over_to
     );
     assert!(figure_after(out, "robustness over", "gain margin >= ") > 2.0);
     assert!(figure_after(out, "robustness over", "phase margin >= ") > 30.0);
+    // The play: the describing function of its dead zone is printed; once the axis holds, the
+    // load moves by less than the plant's play (the friction holds what the play would let
+    // hunt).
     assert!(out.contains("backlash: the fitted play"), "{out}");
+    assert!(out.contains("describing function"), "{out}");
+    let gap = actuatord::physics::load_spec(&root().join(plant))
+        .expect("plant")
+        .get("backlash.gap_rad")
+        .expect("gap");
+    println!(
+        "motor_gear: the tuned load moves by at most {:.2} mrad peak-to-peak while it holds",
+        l.after_hold_motion * 1e3
+    );
+    assert!(
+        l.after_hold_motion < gap,
+        "{} against {gap}",
+        l.after_hold_motion
+    );
     // The axis had no friction compensation: tune adds one from the fitted friction, in volts
     // the plant's Coulomb torque over h K_T / R_a. The fit's levels on a drive with play and a
     // varying ratio (which the model leaves out) come out within 15 %.

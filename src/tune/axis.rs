@@ -9,7 +9,10 @@ use std::path::Path;
 use super::design::{analyse, command_response, goal_poles, place, Analysis, Controller};
 use super::edit::{round_sig, Change, Editor, Kept};
 use super::fitted::Fitted;
-use super::plant::{corners, design_parameters, drive_damping, flexible, AxisModel, Direction};
+use super::plant::{
+    corners, design_parameters, drive_damping, flexible, flexible_with_contact, AxisModel,
+    Direction,
+};
 use crate::daemon::config::{CommandKind, Config, FrictionCompensationConfig};
 use crate::physics::Family;
 
@@ -120,6 +123,9 @@ pub struct Tuning {
     pub robustness: Robustness,
     /// The design on the flexible model of a geared drive (motor_gear), in contact.
     pub flexible: Option<Analysis>,
+    /// The smallest share of the contact's stiffness (of [`CONTACT_SHARES`], from full contact
+    /// down) at which the loop on the flexible model is still stable.
+    pub contact_stable_down_to: Option<f64>,
     /// Start values of the friction compensation per direction, in command units.
     pub friction_start: Option<[f64; 2]>,
     pub changes: Vec<Change>,
@@ -142,6 +148,10 @@ fn largest_step(config: &Config, axis: usize) -> Option<f64> {
 /// and the contact's modes.
 pub const FLEXIBLE_GAIN_MARGIN: f64 = 2.0;
 pub const FLEXIBLE_PHASE_MARGIN_DEG: f64 = 30.0;
+
+/// Shares of the gear contact's stiffness the design is checked at, from full contact down:
+/// the describing function of the play's dead zone (see `plant::flexible_with_contact`).
+pub const CONTACT_SHARES: [f64; 8] = [1.0, 0.8, 0.6, 0.4, 0.2, 0.1, 0.05, 0.02];
 
 /// Safety factor `α` of a friction compensation `tune` adds (the value of every configuration
 /// of the project: a fifth of the friction is left to the integral part).
@@ -366,6 +376,7 @@ pub fn tune(
     let flexible_plant =
         flexible(&fitted.model.spec).map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
     let mut flexible_analysis = None;
+    let mut contact_stable_down_to = None;
     if let Some(fp) = &flexible_plant {
         let (af, bf) = fp.discretise(period_s)?;
         let (ar, br) = model.linear(Direction::Positive).discretise(period_s)?;
@@ -409,6 +420,26 @@ pub fn tune(
                     );
                 }
                 flexible_analysis = Some(an);
+                // The play: the contact's share the loop stays stable down to.
+                let c = place(
+                    &ar,
+                    &br,
+                    &goal_poles(order, bandwidth, goal.damping, goal.fast, period_s),
+                )?;
+                let mut lowest = None;
+                for share in CONTACT_SHARES {
+                    let Some(p) = flexible_with_contact(&fitted.model.spec, share)
+                        .map_err(|e| anyhow::anyhow!("{origin}: {e}"))?
+                    else {
+                        break;
+                    };
+                    let (a_s, b_s) = p.discretise(period_s)?;
+                    if analyse(&a_s, &b_s, &c, period_s).spectral_radius >= 1.0 {
+                        break;
+                    }
+                    lowest = Some(share);
+                }
+                contact_stable_down_to = lowest;
             }
             None => anyhow::bail!(
                 "{origin}: no design at or below {first:.1} rad/s keeps a gain margin of \
@@ -921,6 +952,7 @@ pub fn tune(
         directions,
         robustness,
         flexible: flexible_analysis,
+        contact_stable_down_to,
         friction_start,
         changes: ed.changes,
         kept: ed.kept,
@@ -1028,12 +1060,27 @@ impl fmt::Display for Tuning {
             )?;
         }
         if let Some(gap) = self.model.backlash_gap {
+            let smallest = CONTACT_SHARES[CONTACT_SHARES.len() - 1];
+            let verdict = match self.contact_stable_down_to {
+                Some(s) if s <= smallest => format!(
+                    "the loop on the flexible model stays stable with the contact's stiffness \
+                     down to {:.0} % (the describing function of the play's dead zone): no limit \
+                     cycle from the play is predicted",
+                    100.0 * s
+                ),
+                Some(s) => format!(
+                    "the loop on the flexible model is stable with the contact's stiffness down \
+                     to {:.0} % only: a limit cycle across the play is possible (the describing \
+                     function of its dead zone)",
+                    100.0 * s
+                ),
+                None => "the loop is not stable on the flexible model in full contact".into(),
+            };
             writeln!(
                 f,
-                "backlash: the fitted play of {:.3} mrad is not in the linear design: across it the \
-                 load is free and the integral part closes it; `--robust-plant FILE` writes the \
-                 fitted plant for `actuator design robust`, which covers the play as a \
-                 perturbation",
+                "backlash: the fitted play of {:.3} mrad is not in the linear design; {verdict}; \
+                 `--robust-plant FILE` writes the fitted plant for `actuator design robust`, \
+                 which covers the play as a perturbation",
                 gap * 1e3
             )?;
         }

@@ -249,6 +249,17 @@ impl AxisModel {
 /// shaft, gear, the contact to the load (in contact, at the mean ratio), the load; Bao et al.
 /// eqs. 6–7 as the robust design builds it. `None` for another family.
 pub fn flexible(spec: &crate::physics::PlantSpec) -> Result<Option<ContinuousPlant>, String> {
+    flexible_with_contact(spec, 1.0)
+}
+
+/// [`flexible`] with the contact's stiffness and damping at `share` of their values: the
+/// describing function of the backlash's dead zone in the contact torque is a real gain between
+/// 0 (inside the play) and 1 (deep in contact), so a loop stable for every share down to near 0
+/// is predicted free of a limit cycle from the play (Bao et al.'s `δ1` between -1 and 0).
+pub fn flexible_with_contact(
+    spec: &crate::physics::PlantSpec,
+    share: f64,
+) -> Result<Option<ContinuousPlant>, String> {
     use crate::control::robust::{Envelope, MotorGearParams, UncertainModel};
     if spec.family != Family::MotorGear {
         return Ok(None);
@@ -256,6 +267,13 @@ pub fn flexible(spec: &crate::physics::PlantSpec) -> Result<Option<ContinuousPla
     let params = MotorGearParams::from_spec(spec).map_err(|e| e.to_string())?;
     let model = UncertainModel::new(params, Envelope::default()).map_err(|e| e.to_string())?;
     let mut a = model.nominal.a;
+    if let Some(p) = model
+        .perturbations
+        .iter()
+        .find(|p| p.name.starts_with("backlash"))
+    {
+        a += &p.a * (share - 1.0);
+    }
     // The payload, a disturbance to the robust design, is the spring `T_l = T_lmax θ_l / θ_full`
     // on the load (rows and columns as `STATE_NAMES`: ω_l is 3, θ_l is 6).
     if params.payload_max_nm > 0.0 {
