@@ -339,6 +339,22 @@ mod tests {
         let w = 260.0;
         let (a, b) = (r.response(w), flex.response(w));
         assert!((a - b).norm() > 0.5 * a.norm(), "{a} vs {b}");
+        // A quarter of the contact's stiffness halves the contact mode's frequency (the shaft's
+        // mode, near 2700 rad/s, stays).
+        let contact_mode = |share: f64| -> f64 {
+            let p = flexible_with_contact(&spec, share)
+                .expect("model")
+                .expect("motor_gear");
+            assert_eq!(share == 1.0, p == flex);
+            p.a.complex_eigenvalues()
+                .iter()
+                .map(|e| e.norm())
+                .filter(|w| (20.0..1000.0).contains(w))
+                .fold(0.0, f64::max)
+        };
+        let (full, quarter) = (contact_mode(1.0), contact_mode(0.25));
+        assert!((full - 260.0).abs() < 30.0, "{full}");
+        assert!((quarter / full - 0.5).abs() < 0.1, "{quarter} vs {full}");
         // No flexible model for another family.
         let solenoid = crate::physics::load_spec(std::path::Path::new(concat!(
             env!("CARGO_MANIFEST_DIR"),
