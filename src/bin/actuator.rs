@@ -138,6 +138,10 @@ enum Command {
         /// here, beside --out; the tuned configuration names it. Takes a few minutes.
         #[arg(long)]
         fault_table: Option<PathBuf>,
+        /// A motor_gear model: also write the fitted plant here as a plant file, for the
+        /// H-infinity design `actuator design robust --plant FILE` (the command is printed).
+        #[arg(long)]
+        robust_plant: Option<PathBuf>,
     },
     /// The model lab: compare, diagnose, fit, report.
     #[command(flatten)]
@@ -489,8 +493,14 @@ fn run(args: Args) -> anyhow::Result<()> {
             max_spread,
             axis,
             fault_table,
+            robust_plant,
         } => {
             let fitted = actuatord::tune::Fitted::load(&model)?;
+            // Checked before anything is written.
+            let robust = robust_plant
+                .as_ref()
+                .map(|_| actuatord::tune::robust_plant_file(&fitted))
+                .transpose()?;
             let text = std::fs::read_to_string(&config)
                 .map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", config.display()))?;
             let options = actuatord::tune::TuneOptions {
@@ -525,6 +535,16 @@ fn run(args: Args) -> anyhow::Result<()> {
             std::fs::write(&out, &tuning.text)
                 .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", out.display()))?;
             println!("wrote {}", out.display());
+            if let (Some(path), Some(text)) = (&robust_plant, robust) {
+                std::fs::write(path, text)
+                    .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
+                println!(
+                    "wrote {p}: the fitted plant; `actuator design robust --plant {p} --out \
+                     controller.toml` designs the H-infinity controller on it, and \
+                     [axis.controller] state_space_file = \"controller.toml\" runs it",
+                    p = path.display()
+                );
+            }
             Ok(())
         }
         Command::Sdo {

@@ -9,8 +9,11 @@ use std::path::Path;
 use super::design::{analyse, command_response, goal_poles, place, Analysis, Controller};
 use super::edit::{round_sig, Change, Editor, Kept};
 use super::fitted::Fitted;
-use super::plant::{corners, design_parameters, AxisModel, Direction};
-use crate::daemon::config::{CommandKind, Config};
+use super::plant::{
+    corners, design_parameters, drive_damping, flexible, flexible_with_contact, AxisModel,
+    Direction,
+};
+use crate::daemon::config::{CommandKind, Config, FrictionCompensationConfig};
 use crate::physics::Family;
 
 /// The design goal: a dominant closed-loop pair of natural frequency `bandwidth` and damping
@@ -118,6 +121,11 @@ pub struct Tuning {
     pub controller: Controller,
     pub directions: Vec<DirectionDesign>,
     pub robustness: Robustness,
+    /// The design on the flexible model of a geared drive (motor_gear), in contact.
+    pub flexible: Option<Analysis>,
+    /// The smallest share of the contact's stiffness (of [`CONTACT_SHARES`], from full contact
+    /// down) at which the loop on the flexible model is still stable.
+    pub contact_stable_down_to: Option<f64>,
     /// Start values of the friction compensation per direction, in command units.
     pub friction_start: Option<[f64; 2]>,
     pub changes: Vec<Change>,
@@ -134,6 +142,20 @@ fn largest_step(config: &Config, axis: usize) -> Option<f64> {
     }
     (largest > 0.0).then_some(largest)
 }
+
+/// Least gain margin, and phase margin in degrees, the design keeps on a geared drive's flexible
+/// model (the classical 6 dB and 30°): the rigid model it is placed on leaves out the shaft's
+/// and the contact's modes.
+pub const FLEXIBLE_GAIN_MARGIN: f64 = 2.0;
+pub const FLEXIBLE_PHASE_MARGIN_DEG: f64 = 30.0;
+
+/// Shares of the gear contact's stiffness the design is checked at, from full contact down:
+/// the describing function of the play's dead zone (see `plant::flexible_with_contact`).
+pub const CONTACT_SHARES: [f64; 8] = [1.0, 0.8, 0.6, 0.4, 0.2, 0.1, 0.05, 0.02];
+
+/// Safety factor `α` of a friction compensation `tune` adds (the value of every configuration
+/// of the project: a fifth of the friction is left to the integral part).
+pub const NEW_COMPENSATION_ALPHA: f64 = 0.8;
 
 /// Share of the output range kept free at either limit when the bandwidth is chosen.
 pub const DRIVE_RESERVE: f64 = 0.1;
@@ -202,13 +224,18 @@ fn drive_limited_bandwidth(
         })
     };
     let w_sample = 0.1 / period_s;
+    // A rotary axis' positions are angles (config/motor_gear.toml).
+    let (milli, unit) = match model.family {
+        Family::MotorGear => ("mrad", "rad"),
+        _ => ("mm", "m"),
+    };
     let why = format!(
-        "every set-point change of the tour (the largest {:.2} mm{}) keeps the predicted command \
-         within [{lo_u:.4}, {hi_u:.4}] (the output range less {:.0} % at either end) from the \
-         command that held the position before",
+        "every set-point change of the tour (the largest {:.2} {milli}{}) keeps the predicted \
+         command within [{lo_u:.4}, {hi_u:.4}] (the output range less {:.0} % at either end) from \
+         the command that held the position before",
         step * 1e3,
         a.setpoint_rate_max_m_per_s
-            .map_or(String::new(), |r| format!(" ramped at {r} m/s")),
+            .map_or(String::new(), |r| format!(" ramped at {r} {unit}/s")),
         100.0 * DRIVE_RESERVE
     );
     if fits(w_sample) {
@@ -280,12 +307,7 @@ pub fn tune(
         .ok_or_else(|| anyhow::anyhow!("{cfg_name}: no [[axis]]"))?;
     let family = fitted.model.spec.family;
     match family {
-        Family::Solenoid | Family::LinearAxis => {}
-        Family::MotorGear => anyhow::bail!(
-            "{origin}: a motor_gear model is designed by `actuator design robust --plant PLANT` \
-             (H-infinity on the fitted plant's envelope); write the fitted values into a plant \
-             file without its [lab] table and run that"
-        ),
+        Family::Solenoid | Family::LinearAxis | Family::MotorGear => {}
         Family::Pneumatic => anyhow::bail!(
             "{origin}: tune does not design the pneumatic drive yet; its drive gains per \
              direction go into [axis.schedule] drive_gain_down_m_per_s / drive_gain_up_m_per_s"
@@ -304,15 +326,29 @@ pub fn tune(
         a.name
     );
     // Intervals too wide to design from.
+    // A viscous slope is judged against the whole damping the design sees: beside a motor's
+    // back-EMF a loosely determined slope moves the loop little.
+    let drive_d = drive_damping(family, &|n| fitted.get(n));
     for name in design_parameters(family) {
         if let Some(spread) = fitted.relative_spread(name) {
+            let v = fitted.get(name).unwrap_or(f64::NAN);
+            let (spread, of) = if name.starts_with("viscous.") && drive_d > 0.0 {
+                (
+                    spread * v.abs() / (v.abs() + drive_d),
+                    format!(
+                        "of the damping {:.4e} it is part of (with the drive's back-EMF)",
+                        v.abs() + drive_d
+                    ),
+                )
+            } else {
+                (spread, "of its value".to_string())
+            };
             if spread > options.max_spread {
                 let (lo, hi) = fitted.intervals[*name];
                 anyhow::bail!(
-                    "{origin}: {name} = {:.4e} with the 95 % interval [{lo:.4e}, {hi:.4e}], ±{:.0} % \
-                     of its value: too wide to design from (at most ±{:.0} %). Record more motion \
+                    "{origin}: {name} = {v:.4e} with the 95 % interval [{lo:.4e}, {hi:.4e}], ±{:.0} % \
+                     {of}: too wide to design from (at most ±{:.0} %). Record more motion \
                      (set-point steps over the stroke, both directions) and fit again",
-                    fitted.get(name).unwrap_or(f64::NAN),
                     100.0 * spread,
                     100.0 * options.max_spread
                 );
@@ -330,11 +366,89 @@ pub fn tune(
 
     // The goal's bandwidth.
     let goal = options.goal;
-    let (bandwidth, bandwidth_reason) = match goal.bandwidth_rad_s {
+    let (mut bandwidth, mut bandwidth_reason) = match goal.bandwidth_rad_s {
         Some(w) => (w, "as asked (--goal)".to_string()),
         None => drive_limited_bandwidth(&model, &config, axis, goal, period_s)
             .map_err(|e| anyhow::anyhow!("{origin} with {cfg_name}: {e}"))?,
     };
+    // A geared drive: the rigid model holds well below the shaft's and the contact's modes; the
+    // design must keep its margins on the flexible model too.
+    let flexible_plant =
+        flexible(&fitted.model.spec).map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
+    let mut flexible_analysis = None;
+    let mut contact_stable_down_to = None;
+    if let Some(fp) = &flexible_plant {
+        let (af, bf) = fp.discretise(period_s)?;
+        let (ar, br) = model.linear(Direction::Positive).discretise(period_s)?;
+        let order = ar.len() - 1;
+        let check = |w: f64| -> Option<Analysis> {
+            let c = place(
+                &ar,
+                &br,
+                &goal_poles(order, w, goal.damping, goal.fast, period_s),
+            )
+            .ok()?;
+            Some(analyse(&af, &bf, &c, period_s))
+        };
+        let fine = |an: &Analysis| {
+            an.spectral_radius < 1.0
+                && an.gain_margin.is_some_and(|g| g >= FLEXIBLE_GAIN_MARGIN)
+                && an
+                    .phase_margin_deg
+                    .is_some_and(|p| p >= FLEXIBLE_PHASE_MARGIN_DEG)
+        };
+        let first = bandwidth;
+        let mut found = None;
+        for _ in 0..60 {
+            match check(bandwidth) {
+                Some(an) if fine(&an) => {
+                    found = Some(an);
+                    break;
+                }
+                _ if goal.bandwidth_rad_s.is_some() => break,
+                _ => bandwidth *= 0.95,
+            }
+        }
+        match found {
+            Some(an) => {
+                if bandwidth < first {
+                    bandwidth_reason = format!(
+                        "the largest below {first:.1} rad/s ({bandwidth_reason}) at which the \
+                         design keeps a gain margin of {FLEXIBLE_GAIN_MARGIN} and a phase margin \
+                         of {FLEXIBLE_PHASE_MARGIN_DEG}° on the flexible model (shaft, gear \
+                         contact)"
+                    );
+                }
+                flexible_analysis = Some(an);
+                // The play: the contact's share the loop stays stable down to.
+                let c = place(
+                    &ar,
+                    &br,
+                    &goal_poles(order, bandwidth, goal.damping, goal.fast, period_s),
+                )?;
+                let mut lowest = None;
+                for share in CONTACT_SHARES {
+                    let Some(p) = flexible_with_contact(&fitted.model.spec, share)
+                        .map_err(|e| anyhow::anyhow!("{origin}: {e}"))?
+                    else {
+                        break;
+                    };
+                    let (a_s, b_s) = p.discretise(period_s)?;
+                    if analyse(&a_s, &b_s, &c, period_s).spectral_radius >= 1.0 {
+                        break;
+                    }
+                    lowest = Some(share);
+                }
+                contact_stable_down_to = lowest;
+            }
+            None => anyhow::bail!(
+                "{origin}: no design at or below {first:.1} rad/s keeps a gain margin of \
+                 {FLEXIBLE_GAIN_MARGIN} and a phase margin of {FLEXIBLE_PHASE_MARGIN_DEG}° on the \
+                 flexible model (shaft, gear contact): ask for a lower bandwidth \
+                 (--goal bandwidth=...) or hand over to `actuator design robust`"
+            ),
+        }
+    }
 
     // The slower direction: the less loop gain at the goal's bandwidth.
     let design_direction = if model.has_two_directions()
@@ -459,12 +573,51 @@ pub fn tune(
     let k_mean = 0.5 * (model.gain[0] + model.gain[1]) * scale;
     // A Coulomb level the fit kept (collinear with the pretension or an offset on these data)
     // is not determined; the band F_C+ + F_C- is: split it evenly.
-    let (pos_n, neg_n) = ("coulomb.coulomb_pos_n", "coulomb.coulomb_neg_n");
+    let (pos_n, neg_n) = match family {
+        Family::MotorGear => ("coulomb.coulomb_pos_nm", "coulomb.coulomb_neg_nm"),
+        _ => ("coulomb.coulomb_pos_n", "coulomb.coulomb_neg_n"),
+    };
     let split = fitted.intervals.contains_key(pos_n) != fitted.intervals.contains_key(neg_n);
     let coulomb = model
         .coulomb
         .map(|c| if split { [0.5 * (c[0] + c[1]); 2] } else { c });
-    match (&a.friction_compensation, coulomb) {
+    // An axis without friction compensation gets one where the fit determined the friction
+    // (Isermann & Raab's `U_comp = α F_C± / K sign(e)`), with the configurations' safety factor
+    // and, on a geared drive, a deadband of half the fitted play: inside it the error's sign
+    // does not say on which flank of the play the gear is.
+    let determined = fitted.intervals.contains_key(pos_n) || fitted.intervals.contains_key(neg_n);
+    let added = match (&a.friction_compensation, coulomb) {
+        (None, Some(_)) if determined => Some(FrictionCompensationConfig {
+            alpha: NEW_COMPENSATION_ALPHA,
+            coulomb_pos_n: 0.0,
+            coulomb_neg_n: 0.0,
+            force_gain_n_per_command: 1.0,
+            deadband_m: 0.5 * model.backlash_gap.unwrap_or(0.0),
+        }),
+        _ => None,
+    };
+    if let Some(fc) = &added {
+        ed.set_f64(
+            "friction_compensation",
+            "alpha",
+            fc.alpha,
+            "the safety factor of the project's configurations (the axis had no friction \
+             compensation; the fit determined its friction)",
+        );
+        match model.backlash_gap {
+            Some(gap) => ed.set_f64(
+                "friction_compensation",
+                "deadband_m",
+                0.5 * gap,
+                format!("half backlash.gap_rad of {origin}"),
+            ),
+            None => ed.keep(
+                "axis.friction_compensation.deadband_m",
+                "0: the model has no play; raise it to the sensor's noise",
+            ),
+        }
+    }
+    match (added.as_ref().or(a.friction_compensation.as_ref()), coulomb) {
         (Some(fc), Some(c)) => {
             for (key, name, v) in [
                 ("coulomb_pos_n", pos_n, c[0]),
@@ -491,6 +644,15 @@ pub fn tune(
                         "solenoid.current_gain_a_per_v x solenoid.force_constant_n_per_a of {origin}"
                     ),
                 ),
+                Family::MotorGear => ed.set_f64(
+                    "friction_compensation",
+                    "force_gain_n_per_command",
+                    k_mean,
+                    format!(
+                        "motor_gear.ratio x motor_gear.torque_constant_nm_per_a / \
+                         motor_gear.resistance_ohm of {origin} (N·m per V at the load)"
+                    ),
+                ),
                 _ => ed.keep(
                     "axis.friction_compensation.force_gain_n_per_command",
                     "the lab's linear_axis balance takes the command as the force: the drive's \
@@ -502,10 +664,12 @@ pub fn tune(
                 fc.alpha * c[1] * scale / k_mean,
             ];
             friction_start = Some(start);
-            ed.keep(
-                "axis.friction_compensation.alpha, deadband_m",
-                "the share left to the integral part and the sensor's noise: not the model's",
-            );
+            if added.is_none() {
+                ed.keep(
+                    "axis.friction_compensation.alpha, deadband_m",
+                    "the share left to the integral part and the sensor's noise: not the model's",
+                );
+            }
             if a.adaptive_friction.is_some() {
                 if let Some(tm) = step.time_constant_s() {
                     ed.set_f64(
@@ -787,6 +951,8 @@ pub fn tune(
         controller,
         directions,
         robustness,
+        flexible: flexible_analysis,
+        contact_stable_down_to,
         friction_start,
         changes: ed.changes,
         kept: ed.kept,
@@ -882,6 +1048,42 @@ impl fmt::Display for Tuning {
             opt(r.phase_margin_min_deg, "°"),
             100.0 * r.overshoot_max
         )?;
+        if let Some(a) = &self.flexible {
+            writeln!(
+                f,
+                "on the flexible model (shaft, gear contact, in contact): |z|max {:.3}, overshoot {:.1} %, gain margin {}, phase margin {}, Ms {:.2}",
+                a.spectral_radius,
+                100.0 * a.overshoot(),
+                opt(a.gain_margin, ""),
+                opt(a.phase_margin_deg, "°"),
+                a.sensitivity_peak
+            )?;
+        }
+        if let Some(gap) = self.model.backlash_gap {
+            let smallest = CONTACT_SHARES[CONTACT_SHARES.len() - 1];
+            let verdict = match self.contact_stable_down_to {
+                Some(s) if s <= smallest => format!(
+                    "the loop on the flexible model stays stable with the contact's stiffness \
+                     down to {:.0} % (the describing function of the play's dead zone): no limit \
+                     cycle from the play is predicted",
+                    100.0 * s
+                ),
+                Some(s) => format!(
+                    "the loop on the flexible model is stable with the contact's stiffness down \
+                     to {:.0} % only: a limit cycle across the play is possible (the describing \
+                     function of its dead zone)",
+                    100.0 * s
+                ),
+                None => "the loop is not stable on the flexible model in full contact".into(),
+            };
+            writeln!(
+                f,
+                "backlash: the fitted play of {:.3} mrad is not in the linear design; {verdict}; \
+                 `--robust-plant FILE` writes the fitted plant for `actuator design robust`, \
+                 which covers the play as a perturbation",
+                gap * 1e3
+            )?;
+        }
         if let Some(s) = self.friction_start {
             writeln!(
                 f,
@@ -903,6 +1105,37 @@ impl fmt::Display for Tuning {
         }
         Ok(())
     }
+}
+
+/// The fitted model as a plant file (the model without its `[lab]` table, the fit's header
+/// kept as comments) for `actuator design robust --plant`: the hand-over of a geared drive
+/// to the H-infinity design, which covers the backlash, the ratio and the friction as
+/// perturbations. Checked to load as a plant and to give the robust design's model.
+pub fn robust_plant_file(fitted: &Fitted) -> anyhow::Result<String> {
+    let origin = &fitted.origin;
+    anyhow::ensure!(
+        fitted.model.spec.family == Family::MotorGear,
+        "{origin}: `actuator design robust` designs for motor_gear plants; this is {}",
+        fitted.model.spec.family
+    );
+    let intervals: String = fitted
+        .intervals
+        .iter()
+        .map(|(n, (lo, hi))| {
+            format!(
+                "# {n} = {:.6e}, 95 % interval [{lo:.6e}, {hi:.6e}]\n",
+                fitted.get(n).unwrap_or(f64::NAN)
+            )
+        })
+        .collect();
+    let text = format!(
+        "# The plant fitted in {origin}, written by `actuator tune --robust-plant` for\n\
+         # `actuator design robust --plant`.\n{intervals}{}",
+        fitted.model.spec.to_toml()
+    );
+    let spec = crate::physics::PlantSpec::from_toml(&text, origin)?;
+    flexible(&spec).map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
+    Ok(text)
 }
 
 /// Derive the fault-symptom table for the tuned axis on the fitted plant (the daemon of the

@@ -80,6 +80,13 @@ impl Editor {
         if t.get(section).is_none() {
             let mut s = Table::new();
             s.set_implicit(false);
+            // Written beside the controller's table: at the file's end it would belong to the
+            // last `[[axis]]`, whichever this one is.
+            s.set_position(
+                t.get("controller")
+                    .and_then(|c| c.as_table())
+                    .and_then(|c| c.position()),
+            );
             t.insert(section, Item::Table(s));
         }
         let Some(s) = t.get_mut(section).and_then(|s| s.as_table_like_mut()) else {
@@ -128,5 +135,30 @@ impl Editor {
             key: key.into(),
             reason: reason.into(),
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_new_section_goes_to_its_own_axis_of_several() {
+        let text = "[[axis]]\nname = \"a\"\n[axis.controller]\nq_per_m = [1.0]\n\
+                    [[axis.setpoints]]\nat_s = 1.0\n\
+                    [[axis]]\nname = \"b\"\n[axis.controller]\nq_per_m = [2.0]\n";
+        let doc: DocumentMut = text.parse().expect("TOML");
+        let mut ed = Editor::new(doc, 0);
+        ed.set_f64("friction_compensation", "alpha", 0.8, "test");
+        let back: toml::Table = ed.doc.to_string().parse().expect("TOML");
+        let axes = back["axis"].as_array().expect("axes");
+        assert_eq!(
+            axes[0]["friction_compensation"]["alpha"].as_float(),
+            Some(0.8)
+        );
+        assert!(axes[1].get("friction_compensation").is_none());
+        assert_eq!(axes[0]["setpoints"].as_array().map(|s| s.len()), Some(1));
+        assert_eq!(ed.changes.len(), 1);
+        assert_eq!(ed.changes[0].before, "absent");
     }
 }

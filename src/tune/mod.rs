@@ -8,7 +8,7 @@
 //! | file | job |
 //! |---|---|
 //! | [`fitted`] | the fitted model file and its 95 % intervals |
-//! | [`plant`] | the linear model per direction, and the corners of the intervals |
+//! | [`plant`] | the linear model per direction (a geared drive's also flexible), the corners of the intervals |
 //! | [`design`] | pole placement of the daemon's discrete controller; poles, step, margins |
 //! | [`edit`] | writing values into the configuration, keeping its comments; what changed |
 //! | [`axis`] | the whole tuning of one axis: design, robustness, friction, supervision, schedule |
@@ -22,5 +22,5 @@ pub mod edit;
 pub mod fitted;
 pub mod plant;
 
-pub use axis::{regenerate_fault_table, tune, Goal, TuneOptions, Tuning};
+pub use axis::{regenerate_fault_table, robust_plant_file, tune, Goal, TuneOptions, Tuning};
 pub use fitted::Fitted;

@@ -48,6 +48,8 @@ pub struct AxisModel {
     pub supply_exponent: Option<f64>,
     /// Nominal supply of the model (V).
     pub supply_nominal: Option<f64>,
+    /// Total backlash play between the drive and the load (rad), when the model has it.
+    pub backlash_gap: Option<f64>,
 }
 
 /// Parameters whose intervals move the linear design, per family.
@@ -72,7 +74,34 @@ pub fn design_parameters(family: Family) -> &'static [&'static str] {
             "direction_asymmetry.gain_pos",
             "direction_asymmetry.gain_neg",
         ],
+        // The drive's constants (armature, motor, gear) are declared, not fitted: the load side
+        // is what the fit determines.
+        Family::MotorGear => &[
+            "motor_gear.load_inertia_kg_m2",
+            "viscous.damping_pos_nm_s_per_rad",
+            "viscous.damping_neg_nm_s_per_rad",
+            "payload.max_load_nm",
+        ],
         _ => &[],
+    }
+}
+
+/// The part of the model's damping that the drive itself gives (a motor's back-EMF through
+/// the armature resistance, `h² K_T K_e / R_a`), beside which a fitted viscous slope's interval
+/// is judged: for a geared motor it is most of the damping the design sees.
+pub fn drive_damping(family: Family, value: &dyn Fn(&str) -> Option<f64>) -> f64 {
+    match family {
+        Family::MotorGear => (|| {
+            let h = value("motor_gear.ratio")?;
+            Some(
+                h * h
+                    * value("motor_gear.torque_constant_nm_per_a")?
+                    * value("motor_gear.back_emf_v_s_per_rad")?
+                    / value("motor_gear.resistance_ohm")?,
+            )
+        })()
+        .unwrap_or(0.0),
+        _ => 0.0,
     }
 }
 
@@ -87,17 +116,28 @@ impl AxisModel {
             value(name).ok_or_else(|| format!("the model has no {name}, which the design needs"))
         };
         let or_zero = |name: &str| value(name).unwrap_or(0.0);
+        // A rotary family's parameters carry N·m and rad in their names.
+        let either = |linear: &str, rotary: &str| value(linear).or_else(|| value(rotary));
         let damping = [
-            or_zero("viscous.damping_pos_n_s_per_m"),
-            or_zero("viscous.damping_neg_n_s_per_m"),
+            either(
+                "viscous.damping_pos_n_s_per_m",
+                "viscous.damping_pos_nm_s_per_rad",
+            )
+            .unwrap_or(0.0),
+            either(
+                "viscous.damping_neg_n_s_per_m",
+                "viscous.damping_neg_nm_s_per_rad",
+            )
+            .unwrap_or(0.0),
         ];
         let asym = [
             value("direction_asymmetry.gain_pos").unwrap_or(1.0),
             value("direction_asymmetry.gain_neg").unwrap_or(1.0),
         ];
-        let coulomb = value("coulomb.coulomb_pos_n")
-            .zip(value("coulomb.coulomb_neg_n"))
+        let coulomb = either("coulomb.coulomb_pos_n", "coulomb.coulomb_pos_nm")
+            .zip(either("coulomb.coulomb_neg_n", "coulomb.coulomb_neg_nm"))
             .map(|(p, n)| [p, n]);
+        let backlash_gap = value("backlash.gap_rad").or_else(|| value("backlash.gap_m"));
         match family {
             Family::Solenoid => {
                 let k = need("solenoid.current_gain_a_per_v")?
@@ -113,6 +153,7 @@ impl AxisModel {
                     pretension: or_zero("spring.pretension_n"),
                     supply_exponent: value("supply_gain.exponent"),
                     supply_nominal: value("solenoid.supply_voltage_v"),
+                    backlash_gap,
                 })
             }
             // The lab's balance of a linear axis takes the command as the force (docs/lab.md):
@@ -128,9 +169,44 @@ impl AxisModel {
                 pretension: or_zero("spring.pretension_n"),
                 supply_exponent: value("supply_gain.exponent"),
                 supply_nominal: value("linear_axis.supply_voltage_v"),
+                backlash_gap,
             }),
+            // Bao et al.'s transmission as one rigid body at the load angle (the shaft and the
+            // contact are stiff against the loop's bandwidth; `tune` checks the design on the
+            // flexible model too): inertia `J_l + J_g + h² J_m`, damping `b± + h² K_T K_e / R_a`
+            // (viscous and back-EMF), torque `h K_T / R_a` per volt, the payload
+            // `T_l = T_lmax θ / θ_full` as a spring.
+            Family::MotorGear => {
+                let h = need("motor_gear.ratio")?;
+                let r = need("motor_gear.resistance_ohm")?;
+                let kt = need("motor_gear.torque_constant_nm_per_a")?;
+                let emf = drive_damping(family, value);
+                let payload = match value("payload.max_load_nm") {
+                    Some(t) => t.abs() / need("payload.full_scale_rad")?,
+                    None => 0.0,
+                };
+                Ok(AxisModel {
+                    family,
+                    mass: need("motor_gear.load_inertia_kg_m2")?
+                        + need("motor_gear.gear_inertia_kg_m2")?
+                        + h * h * need("motor_gear.motor_inertia_kg_m2")?,
+                    damping: [damping[0] + emf, damping[1] + emf],
+                    stiffness: payload + or_zero("spring.stiffness_nm_per_rad"),
+                    gain: [h * kt / r; 2],
+                    // The armature's `L_a / R_a` (a third of a millisecond for the project's
+                    // motor) settles within a cycle: left out of the design model, whose other
+                    // poles it would only drag (the flexible model has it).
+                    lag_s: None,
+                    coulomb,
+                    pretension: or_zero("spring.pretension_nm"),
+                    supply_exponent: value("supply_gain.exponent"),
+                    supply_nominal: value("motor_gear.supply_voltage_v"),
+                    backlash_gap,
+                })
+            }
             other => Err(format!(
-                "tune designs the controller of solenoid and linear_axis models; {other} is not one"
+                "tune designs the controller of solenoid, linear_axis and motor_gear models; \
+                 {other} is not one"
             )),
         }
     }
@@ -169,6 +245,48 @@ impl AxisModel {
     }
 }
 
+/// The flexible model of a `motor_gear` plant at the load angle: armature, motor, compliant
+/// shaft, gear, the contact to the load (in contact, at the mean ratio), the load; Bao et al.
+/// eqs. 6–7 as the robust design builds it. `None` for another family.
+pub fn flexible(spec: &crate::physics::PlantSpec) -> Result<Option<ContinuousPlant>, String> {
+    flexible_with_contact(spec, 1.0)
+}
+
+/// [`flexible`] with the contact's stiffness and damping at `share` of their values: the
+/// describing function of the backlash's dead zone in the contact torque is a real gain between
+/// 0 (inside the play) and 1 (deep in contact), so a loop stable for every share down to near 0
+/// is predicted free of a limit cycle from the play (Bao et al.'s `δ1` between -1 and 0).
+pub fn flexible_with_contact(
+    spec: &crate::physics::PlantSpec,
+    share: f64,
+) -> Result<Option<ContinuousPlant>, String> {
+    use crate::control::robust::{Envelope, MotorGearParams, UncertainModel};
+    if spec.family != Family::MotorGear {
+        return Ok(None);
+    }
+    let params = MotorGearParams::from_spec(spec).map_err(|e| e.to_string())?;
+    let model = UncertainModel::new(params, Envelope::default()).map_err(|e| e.to_string())?;
+    let mut a = model.nominal.a;
+    if let Some(p) = model
+        .perturbations
+        .iter()
+        .find(|p| p.name.starts_with("backlash"))
+    {
+        a += &p.a * (share - 1.0);
+    }
+    // The payload, a disturbance to the robust design, is the spring `T_l = T_lmax θ_l / θ_full`
+    // on the load (rows and columns as `STATE_NAMES`: ω_l is 3, θ_l is 6).
+    if params.payload_max_nm > 0.0 {
+        a[(3, 6)] -=
+            params.payload_max_nm / params.payload_full_scale_rad / params.load_inertia_kg_m2;
+    }
+    Ok(Some(ContinuousPlant {
+        a,
+        b: model.nominal.b,
+        c: model.nominal.c,
+    }))
+}
+
 /// Every corner of the intervals of `names` that the fit gave (at most 2¹⁰ of them): a value
 /// function per corner.
 pub fn corners(f: &Fitted, names: &[&str]) -> Vec<Vec<(String, f64)>> {
@@ -185,4 +303,64 @@ pub fn corners(f: &Fitted, names: &[&str]) -> Vec<Vec<(String, f64)>> {
                 .collect()
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::physics::PlantSpec;
+
+    /// The project's geared drive at a fixed ratio (the rigid model has no varying ratio).
+    fn motor_gear() -> PlantSpec {
+        let text = include_str!("../../config/plants/motor_gear.toml")
+            .replace("[varying_ratio]", "[unused]")
+            .replace("max_angle_rad = 1.3", "");
+        let text = text.replace("[unused]\n", "");
+        PlantSpec::from_toml(&text, "motor_gear.toml").expect("plant")
+    }
+
+    #[test]
+    fn the_rigid_gear_model_is_the_flexible_one_below_the_contact_mode() {
+        let spec = motor_gear();
+        assert!(spec.get("varying_ratio.max_angle_rad").is_none());
+        let rigid = AxisModel::with_values(Family::MotorGear, &|n| spec.get(n)).expect("model");
+        // J_l + J_g + h² J_m, b + h² K_T K_e / R_a, h K_T / R_a, T_lmax / θ_full.
+        assert!((rigid.mass - (0.01 + 0.02 + 900.0 * 1e-5)).abs() < 1e-12);
+        assert!((rigid.damping[0] - (0.05 + 900.0 * 0.03 * 0.03 / 1.55)).abs() < 1e-12);
+        assert!((rigid.gain[0] - 30.0 * 0.03 / 1.55).abs() < 1e-12);
+        assert!((rigid.stiffness - 1.0).abs() < 1e-12);
+        let flex = flexible(&spec).expect("model").expect("motor_gear");
+        let r = rigid.linear(Direction::Positive);
+        for w in [0.3, 3.0, 30.0] {
+            let (a, b) = (r.response(w), flex.response(w));
+            assert!((a - b).norm() < 0.05 * b.norm(), "{w} rad/s: {a} vs {b}");
+        }
+        // At the contact mode (about 260 rad/s here) the two part.
+        let w = 260.0;
+        let (a, b) = (r.response(w), flex.response(w));
+        assert!((a - b).norm() > 0.5 * a.norm(), "{a} vs {b}");
+        // A quarter of the contact's stiffness halves the contact mode's frequency (the shaft's
+        // mode, near 2700 rad/s, stays).
+        let contact_mode = |share: f64| -> f64 {
+            let p = flexible_with_contact(&spec, share)
+                .expect("model")
+                .expect("motor_gear");
+            assert_eq!(share == 1.0, p == flex);
+            p.a.complex_eigenvalues()
+                .iter()
+                .map(|e| e.norm())
+                .filter(|w| (20.0..1000.0).contains(w))
+                .fold(0.0, f64::max)
+        };
+        let (full, quarter) = (contact_mode(1.0), contact_mode(0.25));
+        assert!((full - 260.0).abs() < 30.0, "{full}");
+        assert!((quarter / full - 0.5).abs() < 0.1, "{quarter} vs {full}");
+        // No flexible model for another family.
+        let solenoid = crate::physics::load_spec(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/config/plants/solenoid.toml"
+        )))
+        .expect("solenoid");
+        assert!(flexible(&solenoid).expect("no error").is_none());
+    }
 }
