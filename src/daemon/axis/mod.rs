@@ -8,15 +8,12 @@
 
 use super::config::{cycles, AxisConfig, CommandKind, SetpointStep};
 mod friction;
+mod law;
 mod schedule;
 
 use super::learned::AxisLearned;
 use crate::canopen::NmtState;
-use crate::control::robust::StateSpaceController;
-use crate::control::{
-    BandStatus, ControllerError, DiscreteController, GainSource, LearnedTable, LinearController,
-    NonlinearCorrection, ParamError, PneumaticAdaptive, PneumaticStep,
-};
+use crate::control::{BandStatus, ControllerError, GainSource, LearnedTable, ParamError};
 use crate::device::{
     Emcy, FaultDiagnosisPdo, FaultStatePdo, SensorPdo, TunedGainsPdo, TunedParametersPdo,
 };
@@ -29,6 +26,7 @@ use crate::supervise::{
     SymptomThresholds, PHYSICAL_PARAMS,
 };
 use friction::FrictionCompensation;
+use law::ControlLaw;
 use schedule::SupplySchedule;
 
 /// What the axis has learned or runs with this cycle (the tuned-parameter frames).
@@ -274,16 +272,12 @@ pub struct Axis {
     pub command_kind: CommandKind,
     pub start_node: bool,
     safe_command: f64,
-    controller: LinearController,
+    /// The controller (linear with its correction, or the pneumatic direction P controller).
+    law: ControlLaw,
     /// Friction compensation (feed-forward or adaptive), its learned table and the dither.
     friction: FrictionCompensation,
-    correction: Option<NonlinearCorrection>,
     /// Gain and command-limit factors scheduled on the supply, and its scheduled band.
     supply_schedule: SupplySchedule,
-    pneumatic: Option<PneumaticAdaptive>,
-    pneumatic_step: PneumaticStep,
-    /// `z` of this cycle's drive-gain estimation update (estimation stage), 1 for none.
-    pneumatic_eigenvalue: f64,
     observer: Option<DisturbanceObserver>,
     observer_out: ObserverOutput,
     estimation: Option<Estimation>,
@@ -315,20 +309,7 @@ pub struct Axis {
 
 impl Axis {
     pub fn new(cfg: &AxisConfig, period_s: f64) -> Result<Self, ControllerError> {
-        let c = &cfg.controller;
-        let mut controller = match &c.state_space_file {
-            Some(file) => LinearController::StateSpace(Box::new(
-                StateSpaceController::load(file)
-                    .map_err(|e| ControllerError::File(e.to_string()))?,
-            )),
-            None => LinearController::Discrete(Box::new(DiscreteController::new(
-                &c.p,
-                &c.q_per_m,
-                c.output_min,
-                c.output_max,
-            )?)),
-        };
-        controller.preset(cfg.safe_command);
+        let law = ControlLaw::new(cfg, period_s)?;
         let friction = FrictionCompensation::new(cfg, period_s).map_err(unvalidated)?;
         let l = &cfg.limits;
         let band = |lo: Option<f64>, hi: Option<f64>, time_s: f64| {
@@ -367,17 +348,7 @@ impl Axis {
             sensor_timeout_cycles: cycles(l.sensor_timeout_s, period_s),
             heartbeat_timeout_s: l.heartbeat_timeout_s,
         };
-        let correction = cfg
-            .correction_config()
-            .map(NonlinearCorrection::new)
-            .transpose()
-            .map_err(unvalidated)?;
         let schedule = SupplySchedule::new(cfg, period_s)?;
-        let pneumatic = match cfg.pneumatic_config(period_s) {
-            Ok(Some(c)) => Some(PneumaticAdaptive::new(&c).map_err(unvalidated)?),
-            Ok(None) => None,
-            Err(_) => return Err(ControllerError::NotFinite("schedule")),
-        };
         let observer = cfg
             .observer_config(period_s)
             .map(DisturbanceObserver::new)
@@ -417,13 +388,9 @@ impl Axis {
             command_kind: cfg.command,
             start_node: cfg.start_node,
             safe_command: cfg.safe_command,
-            controller,
+            law,
             friction,
-            correction,
             supply_schedule: schedule,
-            pneumatic,
-            pneumatic_step: PneumaticStep::default(),
-            pneumatic_eigenvalue: 1.0,
             observer,
             observer_out: ObserverOutput {
                 x4_pos: f64::NAN,
@@ -537,7 +504,7 @@ impl Axis {
         self.friction.continue_from(&old.friction);
         if old.supervisor.latched().is_empty() {
             self.last_command = old.last_command;
-            self.controller.preset(old.last_command);
+            self.law.preset(old.last_command);
         }
     }
 
@@ -590,7 +557,7 @@ impl Axis {
         self.model.machine = FaultMachineOutput::default();
         // The reference model restarts from where the axis rests; what was learned stays.
         self.friction.reset_model();
-        self.controller.preset(self.safe_command);
+        self.law.preset(self.safe_command);
         self.node_was_operational = self.node_state == Some(NmtState::Operational);
         self.last_command = self.safe_command;
         // Resume from where the axis rests; with a rate limit it then ramps back to the setpoint.
@@ -659,12 +626,8 @@ impl Axis {
         if let Some(e) = self.estimation.as_mut() {
             e.step(self.sensor.position, self.last_command);
         }
-        self.pneumatic_eigenvalue = 1.0;
-        if let Some(p) = self.pneumatic.as_mut() {
-            if !self.model.machine.fail_safe {
-                self.pneumatic_eigenvalue = p.estimate(self.sensor.position);
-            }
-        }
+        self.law
+            .estimate(self.sensor.position, self.model.machine.fail_safe);
     }
 
     /// Stage "observer": the disturbance observer with this cycle's position and the command
@@ -709,7 +672,7 @@ impl Axis {
         {
             present.insert(f);
         }
-        let p = &self.pneumatic_step;
+        let p = self.law.pneumatic_step();
         if p.health_down == EstimatorHealth::Implausible
             || p.health_up == EstimatorHealth::Implausible
         {
@@ -758,22 +721,14 @@ impl Axis {
             self.last_command = self.safe_command;
             self.friction.idle();
         } else if self.fresh {
-            if let Some(p) = self.pneumatic.as_mut() {
-                // Scheduled (and, when configured, adapted) direction P gains on the supply.
-                self.pneumatic_step = p.control(
-                    self.reference,
-                    y,
-                    self.supply_pressure_pa,
-                    self.pneumatic_eigenvalue,
-                );
-                self.last_command = self.pneumatic_step.duty;
+            // Scheduled (and, when configured, adapted) direction P gains on the supply.
+            if let Some(duty) = self
+                .law
+                .direction_p(self.reference, y, self.supply_pressure_pa)
+            {
+                self.last_command = duty;
                 self.friction.no_compensation();
             } else {
-                // u = f*(G_c(q) g e) + U_comp + u_d: the schedule's factor g scales the error
-                // the linear controller sees (the same as scaling its q coefficients), the
-                // correction linearises the static characteristic, friction compensation and
-                // dither are added after it because they are already in command units at the
-                // actuator.
                 let e_scaled = self.supply_schedule.gain_factor() * e;
                 // A drive's supply is its DC link voltage.
                 let supply = match self.command_kind {
@@ -781,28 +736,18 @@ impl Axis {
                     _ => self.sensor.supply_voltage_v,
                 };
                 let (comp, dither) = self.friction.step(self.reference, y, e, supply);
-                let u_c = self.controller.propose(e_scaled);
-                let u_corr = self.correction.as_mut().map_or(u_c, |c| c.step(u_c, y));
-                // The limits the supply allows: u_max(V) = f_l(V) u_max (schedule).
-                let (lo, hi) = self.controller.limits();
-                let limit_factor = self.supply_schedule.command_limit_factor();
-                let (lo, hi) = (lo * limit_factor, hi * limit_factor);
-                let u = (u_corr + comp + dither).clamp(lo, hi);
-                // The controller's own share of what was applied, back through the correction's
-                // gain: feeding it back is the anti-windup.
-                let own = u - comp - dither;
-                let share = if self.correction.is_some() && u_corr.abs() > 1e-12 {
-                    u_c * own / u_corr
-                } else {
-                    own
-                };
-                self.controller.commit(e_scaled, share);
-                self.last_command = u;
+                self.last_command = self.law.command(
+                    e_scaled,
+                    y,
+                    comp,
+                    dither,
+                    self.supply_schedule.command_limit_factor(),
+                );
             }
         }
         let (comp_pos, comp_neg) = self.friction.levels();
         let (compensation, dither) = self.friction.applied();
-        let p = &self.pneumatic_step;
+        let p = self.law.pneumatic_step();
         let tuned = Tuned {
             friction_compensation_pos: comp_pos,
             friction_compensation_neg: comp_neg,
