@@ -496,6 +496,33 @@ fn run(args: Args) -> anyhow::Result<()> {
             robust_plant,
         } => {
             let fitted = actuatord::tune::Fitted::load(&model)?;
+            if fitted.model.spec.family == actuatord::physics::Family::Pneumatic {
+                anyhow::ensure!(
+                    goal == actuatord::tune::Goal::default(),
+                    "{}: --goal is the pole placement of the electromechanical drives; a pneumatic \
+                     axis keeps the closed-loop pole of its configured effort weight",
+                    model.display()
+                );
+                anyhow::ensure!(
+                    fault_table.is_none() && robust_plant.is_none(),
+                    "{}: --fault-table and --robust-plant are for the electromechanical drives; \
+                     a pneumatic axis is tuned by its drive gains",
+                    model.display()
+                );
+                let text = std::fs::read_to_string(&config)
+                    .map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", config.display()))?;
+                let options = actuatord::tune::TuneOptions {
+                    goal,
+                    max_spread,
+                    axis,
+                };
+                let tuning = actuatord::tune::tune_pneumatic(&fitted, &text, &config, &options)?;
+                print!("{tuning}");
+                std::fs::write(&out, &tuning.text)
+                    .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", out.display()))?;
+                println!("wrote {}", out.display());
+                return Ok(());
+            }
             // Checked before anything is written.
             let robust = robust_plant
                 .as_ref()

@@ -309,8 +309,7 @@ pub fn tune(
     match family {
         Family::Solenoid | Family::LinearAxis | Family::MotorGear => {}
         Family::Pneumatic => anyhow::bail!(
-            "{origin}: tune does not design the pneumatic drive yet; its drive gains per \
-             direction go into [axis.schedule] drive_gain_down_m_per_s / drive_gain_up_m_per_s"
+            "{origin}: a pneumatic model is tuned by tune_pneumatic (drive gains per supply point)"
         ),
     }
     anyhow::ensure!(

@@ -12,6 +12,7 @@
 //! | [`design`] | pole placement of the daemon's discrete controller; poles, step, margins |
 //! | [`edit`] | writing values into the configuration, keeping its comments; what changed |
 //! | [`axis`] | the whole tuning of one axis: design, robustness, friction, supervision, schedule |
+//! | [`pneumatic`] | a pneumatic axis: its drive gains per supply point for the daemon's direction P design |
 //!
 //! The layer uses the lab (model files), the daemon's configuration (its types and validation)
 //! and the control layer's linear systems; nothing uses it but the `actuator` binary.
@@ -21,6 +22,8 @@ pub mod design;
 pub mod edit;
 pub mod fitted;
 pub mod plant;
+pub mod pneumatic;
 
 pub use axis::{regenerate_fault_table, robust_plant_file, tune, Goal, TuneOptions, Tuning};
 pub use fitted::Fitted;
+pub use pneumatic::{tune_pneumatic, PneumaticTuning};
