@@ -335,6 +335,15 @@ fn the_fit_command_writes_a_model_for_every_method() {
         assert!(after < 0.5 * before, "{method}: {before} -> {after}");
         assert_eq!(json["track"].is_null(), method != "recursive", "{json}");
         let written = Model::load(&dir.path().join(&out)).expect("the written model loads");
+        // The header names each criterion once: the method's own and, where it is another,
+        // the inverse-dynamics figure `compare` reports.
+        let text = std::fs::read_to_string(dir.path().join(&out)).expect("written");
+        let header = text.lines().next().expect("a header line");
+        assert_eq!(
+            header.matches("inverse_dynamics NRMSE").count(),
+            1,
+            "{method}: {header}"
+        );
         let mass = written.spec.get("solenoid.mass_kg").expect("mass");
         assert!(relative(mass, 0.4956) < 0.05, "{method}: mass {mass}");
     }

@@ -518,15 +518,22 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                     .to_string(),
                 spec: f.spec.clone(),
             };
+            // The inverse-dynamics figure is what `compare` reports; named once.
+            let also = if crit_mode == Mode::InverseDynamics {
+                String::new()
+            } else {
+                format!(
+                    "; inverse_dynamics NRMSE {:.4} -> {:.4}",
+                    f.inverse_dynamics.0, f.inverse_dynamics.1
+                )
+            };
             let mut text = format!(
-                "# Fitted by `actuator fit --method {}` on {} ({} NRMSE {:.4} -> {:.4}; inverse_dynamics NRMSE {:.4} -> {:.4})\n",
+                "# Fitted by `actuator fit --method {}` on {} ({} NRMSE {:.4} -> {:.4}{also})\n",
                 method.name(),
                 d.origin,
                 crit_mode.name(),
                 crit_before,
                 crit_after,
-                f.inverse_dynamics.0,
-                f.inverse_dynamics.1
             );
             for p in &f.parameters {
                 if let Some((lo, hi)) = p.interval {
