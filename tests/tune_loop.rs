@@ -516,7 +516,7 @@ fn readme_walkthrough() -> (Vec<Vec<Vec<String>>>, String) {
     (blocks, section)
 }
 
-/// The RMS following error `sim --record` reports, in µm.
+/// The RMS following error `sim --record` reports, in µm (µrad for a gear).
 fn reported_rms(stderr: &str) -> f64 {
     stderr
         .split("RMS following error ")
@@ -582,6 +582,13 @@ fn the_readme_tuning_walkthrough_runs_and_its_figures_hold() {
                 args.join(" ")
             );
             if args[0] == "sim" {
+                // A gear's positions are angles, and the figure says so.
+                let gear = args.contains(&"motor_gear".to_string());
+                let unit = if gear { " µrad" } else { " µm" };
+                assert!(
+                    stderr.contains(&format!("{:.1}{unit}", reported_rms(&stderr))),
+                    "{unit}: {stderr}"
+                );
                 figures.push(reported_rms(&stderr));
             }
         }

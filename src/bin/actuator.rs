@@ -848,6 +848,12 @@ fn sim_offline(
         .map(|a| a.command)
         .ok_or_else(|| anyhow::anyhow!("{}: no [[axis]]", config_source.name()))?;
     let pressure = plant.family() == actuatord::physics::Family::Pneumatic;
+    // A gear's positions are load angles.
+    let length_unit = if plant.family() == actuatord::physics::Family::MotorGear {
+        "µrad"
+    } else {
+        "µm"
+    };
     let mut rig = LockStep::new(&config, plant, faults)?;
     let mut samples = Vec::with_capacity((seconds / config.cycle.period_s) as usize + 1);
     rig.run(seconds, &mut |s| samples.push(*s));
@@ -873,7 +879,7 @@ fn sim_offline(
     let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt();
     eprintln!(
         "actuator sim: {} samples ({seconds} s at {} ms) written to {}; faults raised: {}; \
-         tracking from {start} s: RMS following error {:.1} µm",
+         tracking from {start} s: RMS following error {:.1} {length_unit}",
         samples.len(),
         config.cycle.period_s * 1e3,
         csv.display(),
