@@ -13,7 +13,7 @@ use super::plant::{
     corners, design_parameters, drive_damping, flexible, flexible_with_contact, AxisModel,
     Direction,
 };
-use crate::daemon::config::{CommandKind, Config, FrictionCompensationConfig};
+use crate::daemon::config::{AxisConfig, CommandKind, Config, FrictionCompensationConfig};
 use crate::physics::Family;
 
 /// The design goal: a dominant closed-loop pair of natural frequency `bandwidth` and damping
@@ -275,6 +275,27 @@ fn drive_limited_bandwidth(
     Ok((lo, format!("the largest at which {why}")))
 }
 
+/// The axis `options.axis` names (the first without a name), with its index.
+pub(super) fn chosen_axis<'c>(
+    config: &'c Config,
+    options: &TuneOptions,
+    cfg_name: &str,
+) -> anyhow::Result<(usize, &'c AxisConfig)> {
+    let axis = match &options.axis {
+        None => 0,
+        Some(name) => config
+            .axis
+            .iter()
+            .position(|a| &a.name == name)
+            .ok_or_else(|| anyhow::anyhow!("{cfg_name}: no [[axis]] named {name:?}"))?,
+    };
+    let a = config
+        .axis
+        .get(axis)
+        .ok_or_else(|| anyhow::anyhow!("{cfg_name}: no [[axis]]"))?;
+    Ok((axis, a))
+}
+
 /// Tune axis `options.axis` of the configuration `config_text` (from `config_path`) on the
 /// fitted model. Refuses (with the reason) a model whose design parameters' intervals are
 /// wider than `options.max_spread`, or on whose intervals the design is not stable.
@@ -293,18 +314,7 @@ pub fn tune(
     let origin = &fitted.origin;
     let cfg_name = config_path.display().to_string();
     let config = Config::from_toml(config_text, config_path)?;
-    let axis = match &options.axis {
-        None => 0,
-        Some(name) => config
-            .axis
-            .iter()
-            .position(|a| &a.name == name)
-            .ok_or_else(|| anyhow::anyhow!("{cfg_name}: no [[axis]] named {name:?}"))?,
-    };
-    let a = config
-        .axis
-        .get(axis)
-        .ok_or_else(|| anyhow::anyhow!("{cfg_name}: no [[axis]]"))?;
+    let (axis, a) = chosen_axis(&config, options, &cfg_name)?;
     let family = fitted.model.spec.family;
     match family {
         Family::Solenoid | Family::LinearAxis | Family::MotorGear => {}

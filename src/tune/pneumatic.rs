@@ -6,6 +6,7 @@
 use std::fmt;
 use std::path::Path;
 
+use super::axis::chosen_axis;
 use super::edit::{round_sig, Change, Editor, Kept};
 use super::fitted::Fitted;
 use super::TuneOptions;
@@ -81,18 +82,7 @@ pub fn tune_pneumatic(
     let origin = &fitted.origin;
     let cfg_name = config_path.display().to_string();
     let config = Config::from_toml(config_text, config_path)?;
-    let axis = match &options.axis {
-        None => 0,
-        Some(name) => config
-            .axis
-            .iter()
-            .position(|a| &a.name == name)
-            .ok_or_else(|| anyhow::anyhow!("{cfg_name}: no [[axis]] named {name:?}"))?,
-    };
-    let a = config
-        .axis
-        .get(axis)
-        .ok_or_else(|| anyhow::anyhow!("{cfg_name}: no [[axis]]"))?;
+    let (axis, a) = chosen_axis(&config, options, &cfg_name)?;
     anyhow::ensure!(
         a.command == CommandKind::Duty,
         "{cfg_name}: axis {:?} is commanded by {:?}; a pneumatic model is designed for a valve duty",
