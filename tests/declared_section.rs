@@ -1,14 +1,20 @@
-//! Sections declared once (`[axis.observer]`, `[axis.adaptive_friction]`): their TOML keys,
-//! defaults, range checks, dictionary entries and SDO writes all come from the one declaration,
-//! and agree with each other.
+//! Sections declared once (`[axis.observer]`, `[axis.adaptive_friction]`,
+//! `[axis.parameter_estimation]`, `[axis.dither]`): their TOML keys, defaults, range checks,
+//! dictionary entries and SDO writes all come from the one declaration, and agree with each
+//! other.
 
 use actuatord::canopen::od::Access as OdAccess;
-use actuatord::canopen::{NmtState, Value};
-use actuatord::control::AdaptiveFrictionSection;
+use actuatord::canopen::od::{Handle, ObjectId};
+use actuatord::canopen::{NmtState, ObjectDictionary, Value};
+use actuatord::control::{AdaptiveFrictionSection, DitherSection};
 use actuatord::daemon::config::{AxisConfig, Config};
 use actuatord::daemon::dictionary;
+use actuatord::device::objects::axis_intelligence::{
+    ADAPTIVE_FRICTION, OBSERVER, PARAMETER_ESTIMATION,
+};
+use actuatord::device::objects::index;
 use actuatord::param::{Access, Declared, Kind, COMMAND_UNIT};
-use actuatord::supervise::ObserverSection;
+use actuatord::supervise::{ObserverSection, ParameterEstimationSection};
 use std::path::Path;
 
 fn shipped() -> Config {
@@ -60,9 +66,24 @@ fn writes_and_checks_follow_the_declared_ranges() {
     assert_eq!(o.check().expect_err("a pole outside").name, "poles");
 }
 
-/// Every entry of section `S` in axis 0's dictionary is its declaration (name, unit, range,
-/// documentation, access), and a value written over the dictionary lands in its field.
-fn entries_and_writes_follow<S: Declared>(section: fn(&AxisConfig) -> Option<&S>, writable: usize) {
+/// The handle of entry `name` of the object at `offset` in axis 0's block (another section may
+/// declare the same name).
+fn entry_of(od: &ObjectDictionary, offset: u16, name: &str) -> Option<Handle> {
+    (1..=u8::MAX)
+        .map(|sub| od.handle(ObjectId::new(index::axis(0, offset), sub)))
+        .take_while(Option::is_some)
+        .flatten()
+        .find(|h| od.entry(*h).name == name)
+}
+
+/// Every entry of section `S` (the object at `offset` of axis 0's block) is its declaration
+/// (name, unit, range, documentation, access), and a value written over the dictionary lands
+/// in its field.
+fn entries_and_writes_follow<S: Declared>(
+    section: fn(&AxisConfig) -> Option<&S>,
+    offset: u16,
+    writable: usize,
+) {
     let mut config = shipped();
     let command_unit = match config.axis[0].command {
         actuatord::daemon::config::CommandKind::Voltage => "V",
@@ -75,7 +96,7 @@ fn entries_and_writes_follow<S: Declared>(section: fn(&AxisConfig) -> Option<&S>
         .collect();
     assert_eq!(declared_writable.len(), writable);
     for p in S::PARAMS {
-        let h = od.handle_by_name(Some(0), p.name);
+        let h = entry_of(&od, offset, p.name);
         if p.access == Access::Restart {
             assert!(h.is_none(), "{} needs a restart: no entry", p.name);
             continue;
@@ -89,7 +110,12 @@ fn entries_and_writes_follow<S: Declared>(section: fn(&AxisConfig) -> Option<&S>
         assert_eq!(e.unit, unit, "{}", p.name);
         assert_eq!(e.description, p.doc, "{}", p.name);
         assert_eq!(e.access, OdAccess::ReadWritePreOperational, "{}", p.name);
-        assert_eq!(e.min.and_then(|v| v.as_f64()), Some(p.min), "{}", p.name);
+        assert_eq!(
+            e.min.and_then(|v| v.as_f64()),
+            p.min.is_finite().then_some(p.min),
+            "{}",
+            p.name
+        );
         assert_eq!(
             e.max.and_then(|v| v.as_f64()),
             p.max.is_finite().then_some(p.max),
@@ -98,15 +124,16 @@ fn entries_and_writes_follow<S: Declared>(section: fn(&AxisConfig) -> Option<&S>
         );
     }
     for p in declared_writable {
-        let h = od.handle_by_name(Some(0), p.name).expect(p.name);
+        let h = entry_of(&od, offset, p.name).expect(p.name);
         let now = section(&config.axis[0]).and_then(|o| o.get(p.name));
         let wanted = match p.kind {
-            Kind::Count => now.map(|v| v + 3.0),
+            Kind::Count => now.map(|v| if v + 3.0 <= p.max { v + 3.0 } else { v - 1.0 }),
             _ => now.map(|v| v * 1.5),
         }
         .expect("a number");
         let value = match od.entry(h).default {
             Value::Unsigned32(_) => Value::Unsigned32(wanted as u32),
+            Value::Unsigned8(_) => Value::Unsigned8(wanted as u8),
             _ => Value::Real64(wanted),
         };
         od.stage_value(h, value, NmtState::PreOperational)
@@ -122,12 +149,162 @@ fn entries_and_writes_follow<S: Declared>(section: fn(&AxisConfig) -> Option<&S>
 
 #[test]
 fn the_observer_entries_and_sdo_writes_are_the_declaration() {
-    entries_and_writes_follow::<ObserverSection>(|a| a.observer.as_ref(), 7);
+    entries_and_writes_follow::<ObserverSection>(|a| a.observer.as_ref(), OBSERVER, 7);
 }
 
 #[test]
 fn the_adaptive_friction_entries_and_sdo_writes_are_the_declaration() {
-    entries_and_writes_follow::<AdaptiveFrictionSection>(|a| a.adaptive_friction.as_ref(), 6);
+    entries_and_writes_follow::<AdaptiveFrictionSection>(
+        |a| a.adaptive_friction.as_ref(),
+        ADAPTIVE_FRICTION,
+        6,
+    );
+}
+
+#[test]
+fn the_parameter_estimation_entries_and_sdo_writes_are_the_declaration() {
+    entries_and_writes_follow::<ParameterEstimationSection>(
+        |a| a.parameter_estimation.as_ref(),
+        PARAMETER_ESTIMATION,
+        5,
+    );
+}
+
+#[test]
+fn a_write_lands_in_the_section_of_its_object_when_two_declare_the_name() {
+    // Both the observer and the estimation declare moving_speed_m_per_s; the observer's is
+    // writable, the estimation's needs a reload. A write to the observer's entry changes only it.
+    assert!(ObserverSection::spec("moving_speed_m_per_s").is_some());
+    assert!(ParameterEstimationSection::spec("moving_speed_m_per_s").is_some());
+    let mut config = shipped();
+    let before = config.axis[0].parameter_estimation.clone();
+    let observer = config.axis[0].observer.clone().expect("observer");
+    let mut od = dictionary::build(&config).expect("dictionary");
+    let h = entry_of(&od, OBSERVER, "moving_speed_m_per_s").expect("the observer's entry");
+    assert!(entry_of(&od, PARAMETER_ESTIMATION, "moving_speed_m_per_s").is_none());
+    let wanted = observer.moving_speed_m_per_s * 2.0;
+    od.stage_value(h, Value::Real64(wanted), NmtState::PreOperational)
+        .expect("within range");
+    for w in od.take_pending_writes().collect::<Vec<_>>() {
+        dictionary::apply_write(&mut config, &w).expect("applies");
+    }
+    let after = config.axis[0].observer.as_ref().expect("observer");
+    assert_eq!(after.moving_speed_m_per_s, wanted);
+    assert_eq!(config.axis[0].parameter_estimation, before);
+}
+
+#[test]
+fn the_estimation_rules_are_the_declared_ranges() {
+    let config = shipped();
+    let section = config.axis[0]
+        .parameter_estimation
+        .clone()
+        .expect("the shipped solenoid diagnoses");
+    section.check().expect("the shipped values are in range");
+    let spec = ParameterEstimationSection::spec("max_distance").expect("declared");
+    assert_eq!((spec.kind, spec.bits), (Kind::Count, 8));
+    let spec = ParameterEstimationSection::spec("fault_table").expect("declared");
+    assert_eq!((spec.kind, spec.optional), (Kind::Path, true));
+    assert!(!section.present("fault_table") && section.present("window_updates"));
+
+    let mut s = section.clone();
+    assert!(
+        s.set("window_updates", 9.0).is_err(),
+        "six parameters need ten updates"
+    );
+    assert!(
+        s.set("max_distance", 7.0).is_err(),
+        "there are six symptoms"
+    );
+    s.set("max_distance", 6.0).expect("in range");
+    assert_eq!(s.max_distance, 6);
+    let mut s = section.clone();
+    s.relative_floor[4] = -0.1;
+    assert_eq!(
+        s.check().expect_err("a negative floor").name,
+        "relative_floor"
+    );
+    s.relative_floor[4] = f64::INFINITY;
+    s.check().expect("inf: not judged");
+
+    // Over the whole configuration, the error names the section and key.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("config/solenoid.toml");
+    let text = std::fs::read_to_string(&path).expect("shipped config");
+    let bad = text.replacen(
+        "[axis.parameter_estimation]\n",
+        "[axis.parameter_estimation]\nnominal = { current_time_constant_s = 0.01, \
+         damping_ratio = 0.5, natural_frequency_rad_per_s = inf, static_gain_m_per_v = 1e-3, \
+         coulomb_friction_n = 0.5, pretension_n = 1.0 }\n",
+        1,
+    );
+    let err = Config::from_toml(&bad, &path).expect_err("an infinite nominal value");
+    assert!(
+        err.to_string()
+            .contains("parameter_estimation.nominal must be finite, got inf"),
+        "{err}"
+    );
+}
+
+#[test]
+fn dither_keys_are_optional_until_adaptation_needs_them() {
+    let fixed: DitherSection =
+        toml::from_str("amplitude = 0.5\nfrequency_hz = 50.0\n").expect("a fixed dither");
+    assert!(!fixed.adapt);
+    assert_eq!(fixed.amplitude_min, None);
+    assert!(!fixed.present("amplitude_min"));
+    fixed
+        .check_adaptation()
+        .expect("nothing more is needed without adaptation");
+    let c = fixed.config(0.0025);
+    assert_eq!((c.amplitude_min, c.amplitude_max), (0.5, 0.5));
+    assert_eq!((c.frequency_min_hz, c.frequency_max_hz), (50.0, 50.0));
+
+    let optional: Vec<_> = DitherSection::PARAMS
+        .iter()
+        .filter(|p| p.optional)
+        .map(|p| p.name)
+        .collect();
+    assert_eq!(optional.len(), 10);
+    assert!(DitherSection::PARAMS
+        .iter()
+        .all(|p| p.access == Access::Restart));
+    let mut text = String::from("amplitude = 0.5\nfrequency_hz = 50.0\nadapt = true\n");
+    for (k, name) in optional.iter().enumerate() {
+        let adapting: DitherSection = toml::from_str(&text).expect("parses");
+        let err = adapting.check_adaptation().expect_err("a key is missing");
+        assert_eq!(err.name, *name, "the first missing key is named");
+        // Values in range for every key (the rates and bands are not judged here).
+        text.push_str(&format!("{name} = {}\n", 10.0 + k as f64));
+    }
+    let adapting: DitherSection = toml::from_str(&text).expect("parses");
+    adapting.check_adaptation().expect("every key given");
+    assert_eq!(adapting.ripple_max_m, Some(18.0));
+
+    let mut negative = fixed.clone();
+    negative.amplitude = -1.0;
+    assert_eq!(negative.check().expect_err("negative").name, "amplitude");
+    negative.amplitude = 0.5;
+    negative.ripple_max_m = Some(0.0);
+    assert_eq!(negative.check().expect_err("zero").name, "ripple_max_m");
+    let err = toml::from_str::<DitherSection>("amplitude = 0.5\nfrequency = 50.0\n")
+        .expect_err("misspelled key");
+    assert!(err.to_string().contains("frequency"), "{err}");
+}
+
+#[test]
+fn a_config_names_the_dither_key_adaptation_needs() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("config/solenoid.toml");
+    let text = std::fs::read_to_string(&path).expect("shipped config");
+    let with = format!(
+        "{text}\n[axis.dither]\namplitude = 0.5\nfrequency_hz = 50.0\nadapt = true\n\
+         amplitude_min = 0.1\n"
+    );
+    let err = Config::from_toml(&with, &path).expect_err("adaptation needs its bands");
+    assert!(
+        err.to_string()
+            .ends_with("dither.amplitude_max is needed with adapt = true"),
+        "{err}"
+    );
 }
 
 actuatord::declare_section! {

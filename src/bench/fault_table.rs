@@ -173,9 +173,6 @@ impl Simulation {
             .axis
             .first_mut()
             .ok_or_else(|| failed(&"config/solenoid.toml has no axis"))?;
-        let estimator = axis
-            .parameter_estimator_config(period_s)
-            .ok_or_else(|| failed(&"config/solenoid.toml has no [axis.parameter_estimation]"))?;
         let section = axis
             .parameter_estimation
             .take()
@@ -200,10 +197,10 @@ impl Simulation {
             options: *options,
             plant,
             config,
-            estimator,
+            estimator: section.estimator_config(period_s),
             window_updates: section.window_updates,
             thresholds: section.symptom_thresholds(),
-            max_distance: section.max_distance,
+            max_distance: usize::from(section.max_distance),
         })
     }
 

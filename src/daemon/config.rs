@@ -2,15 +2,14 @@
 //! the file, the key and the rule broken.
 
 use crate::control::{
-    AdaptiveFriction, AdaptiveFrictionConfig, Dither, DitherConfig, GainSchedule, LearnedTable,
+    AdaptiveFriction, AdaptiveFrictionConfig, Dither, GainSchedule, LearnedTable,
     LearnedTableConfig, NonlinearCorrection, NonlinearCorrectionConfig, ParamError,
     PneumaticAdaptive, PneumaticAdaptiveConfig, SchedulePoint,
 };
 use crate::param::Declared;
 use crate::supervise::{
-    DisturbanceObserver, EstimatorSupervisorConfig, FaultMachineConfig, FaultSymptomTable,
-    FaultTableError, ObserverConfig, ParameterEstimator, ParameterEstimatorConfig, Reaction,
-    SupervisedFault, SymptomThresholds,
+    DisturbanceObserver, EstimatorSupervisorConfig, FaultMachineConfig, ObserverConfig,
+    ParameterEstimator, Reaction, SupervisedFault,
 };
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -329,33 +328,8 @@ fn default_learn_interval_s() -> f64 {
 /// `[axis.adaptive_friction]`, declared with its ranges and access where the algorithm lives.
 pub use crate::control::AdaptiveFrictionSection;
 
-/// `[axis.dither]`: `u_d = A sin(2π f t)`, fixed or self-adapting (see `control::Dither`).
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct DitherSection {
-    /// Starting (or fixed) amplitude, command unit.
-    pub amplitude: f64,
-    /// Starting (or fixed) frequency, at most 1 / (2 period_s).
-    pub frequency_hz: f64,
-    /// Adapt amplitude and frequency; the keys below are needed only then.
-    #[serde(default)]
-    pub adapt: bool,
-    pub amplitude_min: Option<f64>,
-    pub amplitude_max: Option<f64>,
-    pub frequency_min_hz: Option<f64>,
-    pub frequency_max_hz: Option<f64>,
-    /// Amplitude change rate, command unit per s.
-    pub amplitude_rate_per_s: Option<f64>,
-    /// Relative frequency change rate, 1/s.
-    pub frequency_rate_per_s: Option<f64>,
-    /// Errors within this count as on target, m.
-    pub error_tolerance_m: Option<f64>,
-    /// Mean |Δy| per sample below this counts as standstill, m.
-    pub ripple_moving_m: Option<f64>,
-    /// Mean |Δy| per sample above this is too much ripple, m.
-    pub ripple_max_m: Option<f64>,
-    pub ripple_time_constant_s: Option<f64>,
-}
+/// `[axis.dither]`, declared with its ranges where the dither lives.
+pub use crate::control::DitherSection;
 
 /// `[axis.correction]`: `U* = U g(Y_ref) / g(Y)`, `g(Y) = c0 + c1 (Y0 - Y) + c2 (Y0 - Y)²`.
 #[derive(Debug, Clone, Deserialize, PartialEq)]
@@ -445,91 +419,9 @@ pub struct PneumaticAdaptiveSection {
 /// `[axis.observer]`, declared with its ranges and access where the observer lives.
 pub use crate::supervise::ObserverSection;
 
-/// Nominal physical parameters `p = [T_I, D, ω0, K_P, F_C, F_0]`.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq, serde::Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct NominalParameters {
-    pub current_time_constant_s: f64,
-    pub damping_ratio: f64,
-    pub natural_frequency_rad_per_s: f64,
-    pub static_gain_m_per_v: f64,
-    pub coulomb_friction_n: f64,
-    pub pretension_n: f64,
-}
-
-impl NominalParameters {
-    pub fn values(&self) -> [f64; 6] {
-        [
-            self.current_time_constant_s,
-            self.damping_ratio,
-            self.natural_frequency_rad_per_s,
-            self.static_gain_m_per_v,
-            self.coulomb_friction_n,
-            self.pretension_n,
-        ]
-    }
-}
-
-/// `[axis.parameter_estimation]`: θ by state-variable filters and least squares over windows of
-/// moving samples in operation → `p` → symptoms against the nominal `p` → fault-symptom table.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ParameterEstimationSection {
-    /// Corner of the state-variable filters, above the plant's poles, rad/s.
-    pub filter_omega_rad_s: f64,
-    /// Known mass and current-loop time constant of the model (mass is not identifiable; `T_I`
-    /// picks the current pole among the roots).
-    pub mass_kg: f64,
-    pub current_time_constant_s: f64,
-    /// Speed above which a sample counts as moving, m/s.
-    pub moving_speed_m_per_s: f64,
-    /// Consecutive moving samples before they enter the regression (the filters' memory).
-    pub min_moving_samples: u32,
-    /// Regression updates per estimation window.
-    pub window_updates: u64,
-    /// Windows averaged into the learned nominal `p` (when `nominal` is not given).
-    #[serde(default = "one")]
-    pub nominal_windows: u32,
-    /// Consecutive windows with the same diagnosis before it counts as present.
-    #[serde(default = "one")]
-    pub confirm_windows: u32,
-    /// A deviation from the nominal beyond this many standard deviations is a symptom (the
-    /// deviation propagated from the estimator's covariance, or the spread of the windows that
-    /// gave the nominal values when that is larger).
-    pub symptom_sigmas: f64,
-    /// Relative floor per `[T_I, D, ω0, K_P, F_C, F_0]`: deviations within `floor · |p_nom|`
-    /// are never symptoms; `inf` = not judged.
-    pub relative_floor: [f64; 6],
-    /// Largest number of differing symptoms for the nearest table row to count.
-    pub max_distance: usize,
-    /// Fault-symptom table file (relative to this file); absent: the table built into the
-    /// program, `config/fault_symptoms.toml` of its sources.
-    pub fault_table: Option<PathBuf>,
-    /// Configured nominal `p`; absent: learned from the first windows.
-    pub nominal: Option<NominalParameters>,
-}
-
-impl ParameterEstimationSection {
-    /// The symptom test's settings.
-    pub fn symptom_thresholds(&self) -> SymptomThresholds {
-        SymptomThresholds {
-            sigmas: self.symptom_sigmas,
-            relative_floor: self.relative_floor,
-        }
-    }
-
-    /// The configured fault-symptom table, or the built-in one.
-    pub fn load_fault_table(&self) -> Result<FaultSymptomTable, FaultTableError> {
-        match &self.fault_table {
-            Some(path) => FaultSymptomTable::load(path),
-            None => FaultSymptomTable::shipped(),
-        }
-    }
-}
-
-fn one() -> u32 {
-    1
-}
+/// `[axis.parameter_estimation]`, declared with its ranges and access where the diagnosis
+/// lives, and its nominal parameters.
+pub use crate::supervise::{NominalParameters, ParameterEstimationSection};
 
 /// A reaction to a latched supervised fault, in increasing severity.
 #[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
@@ -1077,27 +969,6 @@ impl AxisConfig {
         })
     }
 
-    /// `[axis.dither]`; without adaptation the bands collapse onto the fixed values.
-    pub fn dither_config(&self, period_s: f64) -> Option<DitherConfig> {
-        let d = self.dither.as_ref()?;
-        Some(DitherConfig {
-            period_s,
-            amplitude: d.amplitude,
-            frequency_hz: d.frequency_hz,
-            adapt: d.adapt,
-            amplitude_min: d.amplitude_min.unwrap_or(d.amplitude),
-            amplitude_max: d.amplitude_max.unwrap_or(d.amplitude),
-            frequency_min_hz: d.frequency_min_hz.unwrap_or(d.frequency_hz),
-            frequency_max_hz: d.frequency_max_hz.unwrap_or(d.frequency_hz),
-            amplitude_rate_per_s: d.amplitude_rate_per_s.unwrap_or(0.0),
-            frequency_rate_per_s: d.frequency_rate_per_s.unwrap_or(0.0),
-            error_tolerance_m: d.error_tolerance_m.unwrap_or(0.0),
-            ripple_moving_m: d.ripple_moving_m.unwrap_or(0.0),
-            ripple_max_m: d.ripple_max_m.unwrap_or(f64::MAX),
-            ripple_time_constant_s: d.ripple_time_constant_s.unwrap_or(period_s),
-        })
-    }
-
     pub fn correction_config(&self) -> Option<NonlinearCorrectionConfig> {
         let c = self.correction.as_ref()?;
         Some(NonlinearCorrectionConfig {
@@ -1182,20 +1053,6 @@ impl AxisConfig {
         })
     }
 
-    pub fn parameter_estimator_config(&self, period_s: f64) -> Option<ParameterEstimatorConfig> {
-        let p = self.parameter_estimation.as_ref()?;
-        Some(ParameterEstimatorConfig {
-            period_s,
-            filter_omega_rad_s: p.filter_omega_rad_s,
-            // One window is one short test: no forgetting inside it.
-            forgetting: 1.0,
-            mass_kg: p.mass_kg,
-            nominal_current_time_constant_s: p.current_time_constant_s,
-            moving_speed_m_per_s: p.moving_speed_m_per_s,
-            min_moving_samples: p.min_moving_samples,
-        })
-    }
-
     /// The fault machine's policies: the defaults with the configured reactions.
     pub fn fault_machine_config(&self) -> FaultMachineConfig {
         let mut config = FaultMachineConfig::default();
@@ -1272,31 +1129,11 @@ impl AxisConfig {
                 })?;
             }
         }
-        if let Some(c) = self.dither_config(period_s) {
-            let d = self.dither.as_ref().is_some_and(|d| d.adapt);
-            let missing = self.dither.as_ref().and_then(|d| {
-                [
-                    ("amplitude_min", d.amplitude_min),
-                    ("amplitude_max", d.amplitude_max),
-                    ("frequency_min_hz", d.frequency_min_hz),
-                    ("frequency_max_hz", d.frequency_max_hz),
-                    ("amplitude_rate_per_s", d.amplitude_rate_per_s),
-                    ("frequency_rate_per_s", d.frequency_rate_per_s),
-                    ("error_tolerance_m", d.error_tolerance_m),
-                    ("ripple_moving_m", d.ripple_moving_m),
-                    ("ripple_max_m", d.ripple_max_m),
-                    ("ripple_time_constant_s", d.ripple_time_constant_s),
-                ]
-                .into_iter()
-                .find(|(_, v)| v.is_none())
-            });
-            if let (true, Some((key, _))) = (d, missing) {
-                return Err((
-                    format!("dither.{key}"),
-                    "is needed with adapt = true".to_string(),
-                ));
-            }
-            Dither::new(c).map_err(param("dither"))?;
+        if let Some(d) = &self.dither {
+            d.check_adaptation().map_err(param("dither"))?;
+            Dither::new(d.config(period_s)).map_err(param("dither"))?;
+            // Whatever the generator leaves: the ranges declared with the section.
+            d.check().map_err(param("dither"))?;
         }
         if let Some(c) = self.correction_config() {
             NonlinearCorrection::new(c).map_err(param("correction"))?;
@@ -1417,53 +1254,12 @@ impl AxisConfig {
             o.check().map_err(param("observer"))?;
         }
         if let Some(p) = &self.parameter_estimation {
-            if p.window_updates < 10 {
-                return Err((
-                    "parameter_estimation.window_updates".to_string(),
-                    format!("must be >= 10 (six parameters), got {}", p.window_updates),
-                ));
-            }
-            for (key, v) in [
-                ("nominal_windows", p.nominal_windows),
-                ("confirm_windows", p.confirm_windows),
-            ] {
-                if v == 0 {
-                    return Err((
-                        format!("parameter_estimation.{key}"),
-                        "must be >= 1".to_string(),
-                    ));
-                }
-            }
-            if !(p.symptom_sigmas.is_finite() && p.symptom_sigmas > 0.0) {
-                return Err((
-                    "parameter_estimation.symptom_sigmas".to_string(),
-                    format!("must be finite and > 0, got {}", p.symptom_sigmas),
-                ));
-            }
-            if let Some((i, t)) = p
-                .relative_floor
-                .iter()
-                .enumerate()
-                .find(|(_, t)| t.is_nan() || **t < 0.0)
-            {
-                return Err((
-                    "parameter_estimation.relative_floor".to_string(),
-                    format!("must be >= 0 (inf: not judged), value {} is {t}", i + 1),
-                ));
-            }
+            p.check().map_err(param("parameter_estimation"))?;
             if let Err(e) = p.load_fault_table() {
                 return Err((
                     "parameter_estimation.fault_table".to_string(),
                     e.to_string(),
                 ));
-            }
-            if let Some(n) = &p.nominal {
-                if let Some(v) = n.values().iter().find(|v| !v.is_finite()) {
-                    return Err((
-                        "parameter_estimation.nominal".to_string(),
-                        format!("values must be finite, got {v}"),
-                    ));
-                }
             }
             if self.command != CommandKind::Voltage {
                 return Err((
@@ -1472,8 +1268,9 @@ impl AxisConfig {
                 ));
             }
         }
-        if let Some(c) = self.parameter_estimator_config(period_s) {
-            ParameterEstimator::new(c).map_err(param("parameter_estimation"))?;
+        if let Some(p) = &self.parameter_estimation {
+            ParameterEstimator::new(p.estimator_config(period_s))
+                .map_err(param("parameter_estimation"))?;
         }
         // A force (torque) command is the observer's model with a unit force gain.
         if self.observer.is_some()

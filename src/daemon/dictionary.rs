@@ -7,14 +7,12 @@ use super::learned::AxisLearned;
 use super::record::CycleRecord;
 use crate::canopen::od::{BuildError, Handle, PendingWrite};
 use crate::canopen::{ObjectDictionary, Value};
-use crate::control::AdaptiveFrictionSection;
 use crate::device::objects::axis_intelligence::{
-    symptom_bits, EstimationParameters, IntelligenceParameters, ScheduleParameters, BAND_NAMES,
-    ESTIMATE_NAMES, NOMINAL_NAMES,
+    self, symptom_bits, IntelligenceParameters, ScheduleParameters, BAND_NAMES, ESTIMATE_NAMES,
+    NOMINAL_NAMES,
 };
-use crate::device::objects::{daemon_dictionary, AxisParameters, DeviceParameters};
+use crate::device::objects::{daemon_dictionary, index, AxisParameters, DeviceParameters};
 use crate::param::Declared;
-use crate::supervise::ObserverSection;
 
 /// One entry per configuration value the dictionary carries.
 pub fn axis_parameters(a: &AxisConfig) -> AxisParameters {
@@ -68,16 +66,7 @@ fn intelligence_parameters(a: &AxisConfig) -> IntelligenceParameters {
     IntelligenceParameters {
         adaptive_friction: a.adaptive_friction.clone(),
         observer: a.observer.clone(),
-        estimation: a
-            .parameter_estimation
-            .as_ref()
-            .map(|e| EstimationParameters {
-                window_updates: e.window_updates.min(u64::from(u32::MAX)) as u32,
-                nominal_windows: e.nominal_windows,
-                confirm_windows: e.confirm_windows,
-                max_distance: e.max_distance.min(6) as u8,
-                symptom_sigmas: e.symptom_sigmas,
-            }),
+        estimation: a.parameter_estimation.clone(),
         schedule: a.schedule.as_ref().map(|s| {
             let (variable, supply) = s.variable();
             ScheduleParameters {
@@ -239,52 +228,39 @@ pub fn apply_write(config: &mut Config, w: &PendingWrite) -> Result<WriteEffect,
         "sensor_timeout_s" => l.sensor_timeout_s = number,
         "heartbeat_timeout_s" => l.heartbeat_timeout_s = finite(number),
         other => {
-            return apply_intelligence_write(a, w, other, number)
-                .map(|()| WriteEffect::Rebuild { axis })
+            return apply_intelligence_write(a, w, other).map(|()| WriteEffect::Rebuild { axis })
         }
     }
     Ok(WriteEffect::Rebuild { axis })
 }
 
-/// A write to one of the intelligent sections (present in the dictionary only when configured).
+/// A write to one of the declared sections (present in the dictionary only when configured):
+/// the object says which section, the entry's name is the declaration's, and so are the range
+/// checks.
 fn apply_intelligence_write(
     a: &mut AxisConfig,
     w: &PendingWrite,
     name: &str,
-    number: f64,
 ) -> Result<(), String> {
     let missing = || format!("{}: {name}: the section is not configured", w.id);
-    let count = number as u32;
-    match name {
-        // Declared sections: the name is the declaration's, and so are the range checks.
-        _ if AdaptiveFrictionSection::spec(name).is_some() => {
-            let f = a.adaptive_friction.as_mut().ok_or_else(missing)?;
-            f.set(name, w.value.as_f64().unwrap_or(f64::NAN))
-                .map_err(|e| format!("{}: {e}", w.id))?;
+    let value = w.value.as_f64().unwrap_or(f64::NAN);
+    let written = match index::split(w.id.index).map(|(_, offset)| offset) {
+        Some(axis_intelligence::ADAPTIVE_FRICTION) => a
+            .adaptive_friction
+            .as_mut()
+            .ok_or_else(missing)?
+            .set(name, value),
+        Some(axis_intelligence::OBSERVER) => {
+            a.observer.as_mut().ok_or_else(missing)?.set(name, value)
         }
-        _ if ObserverSection::spec(name).is_some() => {
-            let o = a.observer.as_mut().ok_or_else(missing)?;
-            o.set(name, w.value.as_f64().unwrap_or(f64::NAN))
-                .map_err(|e| format!("{}: {e}", w.id))?;
-        }
-        "symptom_sigmas" => {
-            a.parameter_estimation
-                .as_mut()
-                .ok_or_else(missing)?
-                .symptom_sigmas = number
-        }
-        "window_updates" | "nominal_windows" | "confirm_windows" | "max_distance" => {
-            let e = a.parameter_estimation.as_mut().ok_or_else(missing)?;
-            match name {
-                "window_updates" => e.window_updates = u64::from(count),
-                "nominal_windows" => e.nominal_windows = count,
-                "confirm_windows" => e.confirm_windows = count,
-                _ => e.max_distance = count as usize,
-            }
-        }
-        other => return Err(format!("{}: {other} is not writable here", w.id)),
-    }
-    Ok(())
+        Some(axis_intelligence::PARAMETER_ESTIMATION) => a
+            .parameter_estimation
+            .as_mut()
+            .ok_or_else(missing)?
+            .set(name, value),
+        _ => return Err(format!("{}: {name} is not writable here", w.id)),
+    };
+    written.map_err(|e| format!("{}: {e}", w.id))
 }
 
 /// Handles of the values the node publishes, looked up once so publishing is a store.

@@ -23,6 +23,12 @@ pub enum Kind {
     Count,
     /// Several numbers (not in the dictionary).
     Array,
+    /// Yes or no (not in the dictionary).
+    Flag,
+    /// A file (not in the dictionary); relative to the configuration file.
+    Path,
+    /// A table of its own, checked by its own type (not in the dictionary).
+    Table,
 }
 
 /// What is declared about one parameter.
@@ -33,6 +39,10 @@ pub struct ParamSpec {
     /// SI unit, empty for a number without one.
     pub unit: &'static str,
     pub kind: Kind,
+    /// Width in bits of a count's dictionary entry (8 or 32); 0 for what is not a count.
+    pub bits: u8,
+    /// The key may be left out (an `Option`): absent means "not used", not a default value.
+    pub optional: bool,
     /// Inclusive bounds; an infinite bound leaves that side open.
     pub min: f64,
     pub max: f64,
@@ -45,6 +55,12 @@ impl ParamSpec {
     /// `value` is within the declared range (each element of an array).
     pub fn check(&self, value: f64) -> Result<(), ParamError> {
         let integral = self.kind != Kind::Count || value.fract() == 0.0;
+        if !value.is_finite() && self.min == f64::MIN && self.max == f64::MAX {
+            return Err(ParamError::new(
+                self.name,
+                format!("must be finite, got {value}"),
+            ));
+        }
         if value.is_nan() || value < self.min || value > self.max || !integral {
             let what = if self.kind == Kind::Count {
                 "a whole number"
@@ -64,14 +80,28 @@ impl ParamSpec {
 }
 
 /// The value types a declared section may hold.
-pub trait ParamValue {
+pub trait ParamValue: Sized {
     const KIND: Kind;
+    /// Width of a count's dictionary entry in bits; 0 for what is not a count.
+    const BITS: u8 = 0;
+    /// The key may be left out.
+    const OPTIONAL: bool = false;
+    /// The value of a key left out, where the type has one (`None` of an `Option`).
+    fn absent() -> Option<Self> {
+        None
+    }
+    /// False only for an optional value left out.
+    fn given(&self) -> bool {
+        true
+    }
     /// The values, to check against the range.
     fn each(&self, f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError>;
     /// The value as one number; `None` for an array.
     fn scalar(&self) -> Option<f64>;
     /// Take `value` (already checked); false for an array.
     fn assign(&mut self, value: f64) -> bool;
+    /// A value made from one number (already checked); `None` for what is not one number.
+    fn from_value(value: f64) -> Option<Self>;
 }
 
 impl ParamValue for f64 {
@@ -86,20 +116,108 @@ impl ParamValue for f64 {
         *self = value;
         true
     }
+    fn from_value(value: f64) -> Option<Self> {
+        Some(value)
+    }
 }
 
-impl ParamValue for u32 {
-    const KIND: Kind = Kind::Count;
-    fn each(&self, f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
-        f(f64::from(*self))
+/// A count as the dictionary carries it: `$bits` wide, saturating when shown.
+macro_rules! count_value {
+    ($t:ty, $bits:expr) => {
+        impl ParamValue for $t {
+            const KIND: Kind = Kind::Count;
+            const BITS: u8 = $bits;
+            fn each(
+                &self,
+                f: &mut dyn FnMut(f64) -> Result<(), ParamError>,
+            ) -> Result<(), ParamError> {
+                f(*self as f64)
+            }
+            fn scalar(&self) -> Option<f64> {
+                Some(*self as f64)
+            }
+            fn assign(&mut self, value: f64) -> bool {
+                // Checked whole and within the declared range before; the range keeps it
+                // within the type.
+                *self = value as $t;
+                true
+            }
+            fn from_value(value: f64) -> Option<Self> {
+                Some(value as $t)
+            }
+        }
+    };
+}
+
+count_value!(u8, 8);
+count_value!(u32, 32);
+count_value!(u64, 32);
+count_value!(usize, 32);
+
+impl ParamValue for bool {
+    const KIND: Kind = Kind::Flag;
+    fn each(&self, _f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
+        Ok(())
     }
     fn scalar(&self) -> Option<f64> {
-        Some(f64::from(*self))
+        Some(f64::from(u8::from(*self)))
     }
     fn assign(&mut self, value: f64) -> bool {
-        // Checked whole and within u32 by the declared range before.
-        *self = value as u32;
+        *self = value != 0.0;
         true
+    }
+    fn from_value(value: f64) -> Option<Self> {
+        Some(value != 0.0)
+    }
+}
+
+impl ParamValue for std::path::PathBuf {
+    const KIND: Kind = Kind::Path;
+    fn each(&self, _f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
+        Ok(())
+    }
+    fn scalar(&self) -> Option<f64> {
+        None
+    }
+    fn assign(&mut self, _value: f64) -> bool {
+        false
+    }
+    fn from_value(_value: f64) -> Option<Self> {
+        None
+    }
+}
+
+/// An optional key: its value's kind, checked when given, `None` when left out.
+impl<T: ParamValue> ParamValue for Option<T> {
+    const KIND: Kind = T::KIND;
+    const BITS: u8 = T::BITS;
+    const OPTIONAL: bool = true;
+    fn absent() -> Option<Self> {
+        Some(None)
+    }
+    fn given(&self) -> bool {
+        self.is_some()
+    }
+    fn each(&self, f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
+        match self {
+            Some(v) => v.each(f),
+            None => Ok(()),
+        }
+    }
+    fn scalar(&self) -> Option<f64> {
+        self.as_ref().and_then(T::scalar)
+    }
+    fn from_value(value: f64) -> Option<Self> {
+        T::from_value(value).map(Some)
+    }
+    fn assign(&mut self, value: f64) -> bool {
+        match T::from_value(value) {
+            Some(v) => {
+                *self = Some(v);
+                true
+            }
+            None => false,
+        }
     }
 }
 
@@ -113,6 +231,9 @@ impl<const N: usize> ParamValue for [f64; N] {
     }
     fn assign(&mut self, _value: f64) -> bool {
         false
+    }
+    fn from_value(_value: f64) -> Option<Self> {
+        None
     }
 }
 
@@ -130,6 +251,9 @@ pub trait Declared {
     /// Every value within its declared range; the error names the first that is not.
     fn check(&self) -> Result<(), ParamError>;
 
+    /// Whether the key `name` is given: false only for an optional key left out.
+    fn present(&self, name: &str) -> bool;
+
     /// The declaration of `name`.
     fn spec(name: &str) -> Option<&'static ParamSpec> {
         Self::PARAMS.iter().find(|p| p.name == name)
@@ -142,7 +266,9 @@ pub const COMMAND_UNIT: &str = "command";
 
 /// Declare a configuration section: a struct that TOML deserialises (unknown keys refused)
 /// and whose fields each carry unit, range, access, a line of documentation and, where one
-/// makes sense, a default (a key without a default is required).
+/// makes sense, a default (a key without a default is required, unless its type is an
+/// `Option`: left out, it is `None`). `min` and `max` may be left out where the type bounds
+/// the value (a count's 0, a path); the side is then open.
 ///
 /// ```ignore
 /// declare_section! {
@@ -164,8 +290,8 @@ macro_rules! declare_section {
                 $(#[doc = $fdoc:literal])*
                 $field:ident : $ty:ty = {
                     unit: $unit:expr,
-                    min: $min:expr,
-                    max: $max:expr,
+                    $(min: $min:expr,)?
+                    $(max: $max:expr,)?
                     access: $access:ident,
                     doc: $doc:literal
                     $(, default: $default:expr)? $(,)?
@@ -193,7 +319,7 @@ macro_rules! declare_section {
                     $(
                         $field: match keys.$field {
                             Some(v) => v,
-                            None => $crate::__declared_default!($field $(, $default)?),
+                            None => $crate::__declared_default!($field, $ty $(, $default)?),
                         },
                     )*
                 })
@@ -207,8 +333,10 @@ macro_rules! declare_section {
                         name: stringify!($field),
                         unit: $unit,
                         kind: <$ty as $crate::param::ParamValue>::KIND,
-                        min: $min,
-                        max: $max,
+                        bits: <$ty as $crate::param::ParamValue>::BITS,
+                        optional: <$ty as $crate::param::ParamValue>::OPTIONAL,
+                        min: $crate::__declared_or!(f64::NEG_INFINITY $(, $min)?),
+                        max: $crate::__declared_or!(f64::INFINITY $(, $max)?),
                         doc: $doc,
                         access: $crate::param::Access::$access,
                     },
@@ -248,6 +376,15 @@ macro_rules! declare_section {
                 let _ = i;
                 Ok(())
             }
+
+            fn present(&self, name: &str) -> bool {
+                match name {
+                    $( stringify!($field) => {
+                        $crate::param::ParamValue::given(&self.$field)
+                    } )*
+                    _ => false,
+                }
+            }
         }
     };
 }
@@ -257,10 +394,25 @@ macro_rules! declare_section {
 #[doc(hidden)]
 #[macro_export]
 macro_rules! __declared_default {
-    ($field:ident) => {
-        return Err(serde::de::Error::missing_field(stringify!($field)))
+    ($field:ident, $ty:ty) => {
+        match <$ty as $crate::param::ParamValue>::absent() {
+            Some(v) => v,
+            None => return Err(serde::de::Error::missing_field(stringify!($field))),
+        }
     };
-    ($field:ident, $default:expr) => {
+    ($field:ident, $ty:ty, $default:expr) => {
         $default
+    };
+}
+
+/// The given expression, or the fallback. Used by [`declare_section!`] for open bounds.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __declared_or {
+    ($fallback:expr) => {
+        $fallback
+    };
+    ($fallback:expr, $given:expr) => {
+        $given
     };
 }

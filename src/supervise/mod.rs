@@ -11,6 +11,7 @@ pub mod fault_table;
 mod observer;
 mod observer_section;
 mod param_diagnosis;
+mod parameter_estimation_section;
 
 pub use estimator_supervisor::{
     EstimatorHealth, EstimatorSupervisor, EstimatorSupervisorConfig, MAX_SUPERVISED,
@@ -27,3 +28,4 @@ pub use param_diagnosis::{
     NominalLearner, ParameterEstimator, ParameterEstimatorConfig, PhysicalEstimate,
     PhysicalParameters, Symptom, SymptomThresholds, PHYSICAL_NAMES, PHYSICAL_PARAMS,
 };
+pub use parameter_estimation_section::{NominalParameters, ParameterEstimationSection};

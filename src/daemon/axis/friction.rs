@@ -40,7 +40,11 @@ impl FrictionCompensation {
             .learned_table_config(period_s)
             .map(|(c, every)| LearnedTable::new(c).map(|t| OperatingPointMemory::new(t, every)))
             .transpose()?;
-        let dither = cfg.dither_config(period_s).map(Dither::new).transpose()?;
+        let dither = cfg
+            .dither
+            .as_ref()
+            .map(|d| Dither::new(d.config(period_s)))
+            .transpose()?;
         Ok(Self {
             feed_forward,
             adaptive,

@@ -354,12 +354,10 @@ impl Axis {
             .map(DisturbanceObserver::new)
             .transpose()
             .map_err(unvalidated)?;
-        let estimation = match (
-            cfg.parameter_estimator_config(period_s),
-            &cfg.parameter_estimation,
-        ) {
-            (Some(c), Some(p)) => Some(Estimation {
-                estimator: ParameterEstimator::new(c).map_err(unvalidated)?,
+        let estimation = match &cfg.parameter_estimation {
+            Some(p) => Some(Estimation {
+                estimator: ParameterEstimator::new(p.estimator_config(period_s))
+                    .map_err(unvalidated)?,
                 window_updates: p.window_updates,
                 nominal: p
                     .nominal
@@ -370,7 +368,7 @@ impl Axis {
                 table: p
                     .load_fault_table()
                     .map_err(|e| ControllerError::File(e.to_string()))?,
-                max_distance: p.max_distance,
+                max_distance: usize::from(p.max_distance),
                 confirm_windows: p.confirm_windows.max(1),
                 candidate: None,
                 candidate_windows: 0,
@@ -379,7 +377,7 @@ impl Axis {
                 symptoms: [Symptom::Zero; PHYSICAL_PARAMS],
                 last: None,
             }),
-            _ => None,
+            None => None,
         };
         let machine = FaultMachine::new(&cfg.fault_machine_config()).map_err(unvalidated)?;
         Ok(Self {

@@ -8,7 +8,7 @@
 //! |---|---|---|
 //! | 06h | adaptive friction compensation | rw in pre-operational |
 //! | 07h | disturbance observer (supervision thresholds) | rw in pre-operational |
-//! | 08h | parameter estimation (windows, confirmation) | rw in pre-operational |
+//! | 08h | parameter estimation (windows, confirmation, symptoms) | rw in pre-operational |
 //! | 09h | supply schedule (points) | ro: a schedule is edited in the file (SIGHUP) |
 //! | 11h | diagnosis: estimates, nominal values, symptoms, observer bands, learned cells | ro |
 //!
@@ -19,7 +19,7 @@ use crate::canopen::od::EntrySpec;
 use crate::canopen::od::{ObjectDictionaryBuilder, Value};
 use crate::control::AdaptiveFrictionSection;
 use crate::param::{Access as ParamAccess, Declared, Kind, COMMAND_UNIT};
-use crate::supervise::ObserverSection;
+use crate::supervise::{ObserverSection, ParameterEstimationSection};
 
 /// Offsets inside an axis block (see `daemon_objects::index`).
 pub const ADAPTIVE_FRICTION: u16 = 0x06;
@@ -30,16 +30,6 @@ pub const DIAGNOSIS: u16 = 0x11;
 
 /// Most schedule points the dictionary shows.
 pub const MAX_SCHEDULE_POINTS: usize = 8;
-
-/// The windows of `[axis.parameter_estimation]`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct EstimationParameters {
-    pub window_updates: u32,
-    pub nominal_windows: u32,
-    pub confirm_windows: u32,
-    pub max_distance: u8,
-    pub symptom_sigmas: f64,
-}
 
 /// `[axis.schedule]`: supply points and the scheduled values at each.
 #[derive(Debug, Clone, PartialEq)]
@@ -60,7 +50,8 @@ pub struct IntelligenceParameters {
     pub adaptive_friction: Option<AdaptiveFrictionSection>,
     /// `[axis.observer]`: its writable thresholds become entries, as declared.
     pub observer: Option<ObserverSection>,
-    pub estimation: Option<EstimationParameters>,
+    /// `[axis.parameter_estimation]`: its windows and symptom settings, as declared.
+    pub estimation: Option<ParameterEstimationSection>,
     pub schedule: Option<ScheduleParameters>,
 }
 
@@ -125,8 +116,6 @@ const UP_NAMES: [&str; MAX_SCHEDULE_POINTS] = [
     "drive_gain_up_7",
 ];
 
-const POSITIVE_MIN: f64 = 1e-12;
-
 /// The entries of a declared section: its parameters writable in pre-operational, with the
 /// declared unit (the axis' command unit where declared so), range and line of documentation,
 /// in declaration order.
@@ -137,13 +126,19 @@ fn declared_entries<S: Declared>(section: &S, command_unit: &'static str) -> Vec
         .filter_map(|p| {
             let v = section.get(p.name)?;
             let side = |x: f64, f: fn(f64) -> Value| x.is_finite().then(|| f(x));
-            let e = match p.kind {
-                Kind::Real => EntrySpec::rw_preop(p.name, v).between(p.min, p.max),
-                Kind::Count => EntrySpec::rw_preop(p.name, v as u32).range(
+            let e = match (p.kind, p.bits) {
+                (Kind::Real, _) => EntrySpec::rw_preop(p.name, v).between(p.min, p.max),
+                // The declared range keeps a count within its entry; a larger value shows
+                // saturated.
+                (Kind::Count, 8) => EntrySpec::rw_preop(p.name, v as u8).range(
+                    side(p.min, |x| Value::Unsigned8(x as u8)),
+                    side(p.max, |x| Value::Unsigned8(x as u8)),
+                ),
+                (Kind::Count, _) => EntrySpec::rw_preop(p.name, v as u32).range(
                     side(p.min, |x| Value::Unsigned32(x as u32)),
                     side(p.max, |x| Value::Unsigned32(x as u32)),
                 ),
-                Kind::Array => return None,
+                (Kind::Array | Kind::Flag | Kind::Path | Kind::Table, _) => return None,
             };
             let unit = if p.unit == COMMAND_UNIT {
                 command_unit
@@ -185,23 +180,7 @@ pub fn intelligence_objects(
             at(PARAMETER_ESTIMATION),
             format!("axis{i}_parameter_estimation"),
             axis,
-            vec![
-                EntrySpec::rw_preop("window_updates", e.window_updates)
-                    .range(Some(Value::Unsigned32(1)), None)
-                    .doc("estimator updates per window (one short test)"),
-                EntrySpec::rw_preop("nominal_windows", e.nominal_windows)
-                    .range(Some(Value::Unsigned32(1)), None)
-                    .doc("first windows averaged into the nominal values (unless configured)"),
-                EntrySpec::rw_preop("confirm_windows", e.confirm_windows)
-                    .range(Some(Value::Unsigned32(1)), None)
-                    .doc("windows in a row that must agree on a fault"),
-                EntrySpec::rw_preop("symptom_sigmas", e.symptom_sigmas)
-                    .between(POSITIVE_MIN, 100.0)
-                    .doc("a symptom needs |p - p_nom| above this many standard deviations"),
-                EntrySpec::rw_preop("max_distance", e.max_distance)
-                    .range(None, Some(Value::Unsigned8(6)))
-                    .doc("most symptoms a diagnosis may differ from its table row"),
-            ],
+            declared_entries(e, command_unit),
         );
     }
     if let Some(s) = &p.schedule {
