@@ -162,6 +162,29 @@ fn the_adaptive_friction_entries_and_sdo_writes_are_the_declaration() {
 }
 
 #[test]
+fn a_declared_command_unit_follows_the_axis_command() {
+    use actuatord::daemon::config::CommandKind;
+    for (command, unit) in [
+        (CommandKind::Voltage, "V"),
+        (CommandKind::Duty, ""),
+        (CommandKind::Torque, "N m"),
+        (CommandKind::Velocity, "m/s"),
+    ] {
+        let mut config = shipped();
+        config.axis[0].command = command;
+        // Within a duty's bounds, so that every command kind takes them.
+        config.axis[0].controller.output_min = 0.0;
+        config.axis[0].controller.output_max = 1.0;
+        config.axis[0].safe_command = 0.0;
+        let od = dictionary::build(&config).expect("dictionary");
+        let h = entry_of(&od, ADAPTIVE_FRICTION, "compensation_max").expect("declared entry");
+        assert_eq!(od.entry(h).unit, unit, "{command:?}");
+        let h = od.handle_by_name(Some(0), "safe_command").expect("entry");
+        assert_eq!(od.entry(h).unit, unit, "{command:?}");
+    }
+}
+
+#[test]
 fn the_parameter_estimation_entries_and_sdo_writes_are_the_declaration() {
     entries_and_writes_follow::<ParameterEstimationSection>(
         |a| a.parameter_estimation.as_ref(),

@@ -11,7 +11,7 @@ use crate::device::objects::axis_intelligence::{
     self, symptom_bits, IntelligenceParameters, ScheduleParameters, BAND_NAMES, ESTIMATE_NAMES,
     NOMINAL_NAMES,
 };
-use crate::device::objects::{daemon_dictionary, index, AxisParameters, DeviceParameters};
+use crate::device::objects::{daemon_dictionary, index, AxisParameters, Command, DeviceParameters};
 use crate::param::Declared;
 
 /// One entry per configuration value the dictionary carries.
@@ -30,7 +30,12 @@ pub fn axis_parameters(a: &AxisConfig) -> AxisParameters {
     AxisParameters {
         name: a.name.clone(),
         actuator_node_id: a.actuator_node_id,
-        command_duty: a.command == CommandKind::Duty,
+        command: match a.command {
+            CommandKind::Voltage => Command::Voltage,
+            CommandKind::Duty => Command::Duty,
+            CommandKind::Torque => Command::Torque,
+            CommandKind::Velocity => Command::Velocity,
+        },
         safe_command: a.safe_command,
         initial_setpoint_m: a.initial_setpoint_m,
         setpoint_rate_max_m_per_s: a.setpoint_rate_max_m_per_s.unwrap_or(inf),

@@ -105,14 +105,60 @@ fn version_number() -> u32 {
     (major << 16) | (minor & 0xFFFF)
 }
 
+/// What an axis commands, for the units of the entries that carry a command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Command {
+    /// Terminal voltage, V.
+    #[default]
+    Voltage,
+    /// Signed valve duty, -1..1, no unit.
+    Duty,
+    /// A drive's target torque, N m (a force in N on a linear motor).
+    Torque,
+    /// A drive's target velocity, m/s (rad/s on a rotary axis).
+    Velocity,
+}
+
+impl Command {
+    /// The unit of a command value.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Command::Voltage => "V",
+            Command::Duty => "",
+            Command::Torque => "N m",
+            Command::Velocity => "m/s",
+        }
+    }
+
+    /// The unit of a controller coefficient: command per m of error.
+    fn per_m(self) -> &'static str {
+        match self {
+            Command::Voltage => "V/m",
+            Command::Duty => "1/m",
+            Command::Torque => "N m/m",
+            Command::Velocity => "1/s",
+        }
+    }
+
+    /// The unit of the drive's force per command.
+    fn force_per_command(self) -> &'static str {
+        match self {
+            Command::Voltage => "N/V",
+            Command::Duty => "N",
+            Command::Torque => "N/(N m)",
+            Command::Velocity => "N s/m",
+        }
+    }
+}
+
 /// One axis' configured parameters, as the dictionary shows them. A limit that is not
 /// configured is infinite (a minimum -inf, a maximum or time +inf): "not watched".
 #[derive(Debug, Clone, PartialEq)]
 pub struct AxisParameters {
     pub name: String,
     pub actuator_node_id: u8,
-    /// The command is a signed valve duty (-1..1) instead of a voltage.
-    pub command_duty: bool,
+    /// What the axis commands: the unit of its command entries.
+    pub command: Command,
     pub safe_command: f64,
     pub initial_setpoint_m: f64,
     /// Rate limit of the reference, m/s; infinite = steps.
@@ -150,7 +196,7 @@ impl Default for AxisParameters {
         Self {
             name: "axis".into(),
             actuator_node_id: 16,
-            command_duty: false,
+            command: Command::Voltage,
             safe_command: 0.0,
             initial_setpoint_m: 0.0,
             setpoint_rate_max_m_per_s: f64::INFINITY,
@@ -184,7 +230,7 @@ impl Default for AxisParameters {
 
 /// Bounds of a command output: ±1000 V for a voltage, ±1 for a duty.
 fn command_bound(a: &AxisParameters) -> f64 {
-    if a.command_duty {
+    if a.command == Command::Duty {
         1.0
     } else {
         1000.0
@@ -359,7 +405,7 @@ fn axis_objects(
     let at = |offset| index::axis(i, offset);
     let axis = Some(i);
     let c = command_bound(a);
-    let cu = if a.command_duty { "" } else { "V" };
+    let cu = a.command.unit();
     let name = Value::string(&a.name).ok_or_else(|| BuildError::BadEntry {
         id: ObjectId::new(at(index::AXIS), 1),
         name: "axis_name",
@@ -370,7 +416,7 @@ fn axis_objects(
         .zip(a.q_per_m)
         .map(|(n, q)| {
             EntrySpec::rw_preop(n, q)
-                .unit(if a.command_duty { "1/m" } else { "V/m" })
+                .unit(a.command.per_m())
                 .between(-COEFFICIENT_BOUND, COEFFICIENT_BOUND)
                 .doc("numerator coefficient q_j of u(k) = -sum p_i u(k-i) + sum q_j e(k-j)")
         })
@@ -462,7 +508,7 @@ fn axis_objects(
             vec![
                 EntrySpec::ro("axis_name", name),
                 EntrySpec::ro("actuator_node_id", a.actuator_node_id),
-                EntrySpec::ro("command_kind", u8::from(a.command_duty))
+                EntrySpec::ro("command_kind", u8::from(a.command == Command::Duty))
                     .doc("0 voltage (V), 1 signed valve duty (-1..1)"),
                 EntrySpec::rw_preop("safe_command", a.safe_command)
                     .unit(cu)
@@ -496,7 +542,7 @@ fn axis_objects(
                     .unit("N")
                     .between(0.0, 1e6),
                 EntrySpec::rw_preop("force_gain_n_per_command", a.force_gain_n_per_command)
-                    .unit(if a.command_duty { "N" } else { "N/V" })
+                    .unit(a.command.force_per_command())
                     .between(POSITIVE_MIN, 1e9),
                 EntrySpec::rw_preop("deadband_m", a.deadband_m)
                     .unit("m")

@@ -149,3 +149,54 @@ fn one_row_per_entry_with_a_header() {
         .lines()
         .all(|l| l.matches(" | ").count() == 9 || l.starts_with("|---")));
 }
+
+#[test]
+fn command_entries_carry_the_unit_of_the_axis_command() {
+    use crate::control::AdaptiveFrictionSection;
+    let adaptive = AdaptiveFrictionSection {
+        model_time_constant_s: 0.02,
+        adaptation_gain_per_m_s: 10.0,
+        compensation_max: 0.5,
+        error_deadband_m: 0.0,
+        model_deadband_m: 0.0,
+        settled_band_m: 1e-3,
+    };
+    // command, coefficient q_j, force gain
+    let expected = [
+        (Command::Voltage, "V", "V/m", "N/V"),
+        (Command::Duty, "", "1/m", "N"),
+        (Command::Torque, "N m", "N m/m", "N/(N m)"),
+        (Command::Velocity, "m/s", "1/s", "N s/m"),
+    ];
+    for (command, unit, per_m, force_gain) in expected {
+        // Within a duty's bounds, so that every command kind takes them.
+        let mut axis = AxisParameters {
+            command,
+            output_max: 1.0,
+            ..solenoid()
+        };
+        axis.intelligence.adaptive_friction = Some(adaptive.clone());
+        let od = daemon_dictionary(&DeviceParameters::default(), &[axis]).expect("fits");
+        let unit_of = |name: &str| {
+            let h = od.handle_by_name(Some(0), name).expect(name);
+            od.entry(h).unit
+        };
+        for name in [
+            "output_min",
+            "output_max",
+            "safe_command",
+            "friction_compensation",
+            "friction_compensation_pos",
+            "friction_compensation_neg",
+            "compensation_max",
+        ] {
+            assert_eq!(unit_of(name), unit, "{command:?} {name}");
+        }
+        assert_eq!(unit_of("q0_per_m"), per_m, "{command:?}");
+        assert_eq!(
+            unit_of("force_gain_n_per_command"),
+            force_gain,
+            "{command:?}"
+        );
+    }
+}
