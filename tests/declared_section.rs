@@ -6,14 +6,14 @@
 use actuatord::canopen::od::Access as OdAccess;
 use actuatord::canopen::od::{Handle, ObjectId};
 use actuatord::canopen::{NmtState, ObjectDictionary, Value};
-use actuatord::control::{AdaptiveFrictionSection, DitherSection};
+use actuatord::control::{AdaptiveFrictionSection, DitherSection, FrictionCompensationSection};
 use actuatord::daemon::config::{AxisConfig, Config};
 use actuatord::daemon::dictionary;
 use actuatord::device::objects::axis_intelligence::{
     ADAPTIVE_FRICTION, OBSERVER, PARAMETER_ESTIMATION,
 };
 use actuatord::device::objects::index;
-use actuatord::param::{Access, Declared, Kind, COMMAND_UNIT};
+use actuatord::param::{Access, Declared, Kind, COMMAND_UNIT, FORCE_PER_COMMAND_UNIT};
 use actuatord::supervise::{ObserverSection, ParameterEstimationSection};
 use std::path::Path;
 
@@ -85,10 +85,12 @@ fn entries_and_writes_follow<S: Declared>(
     writable: usize,
 ) {
     let mut config = shipped();
-    let command_unit = match config.axis[0].command {
-        actuatord::daemon::config::CommandKind::Voltage => "V",
-        _ => "",
-    };
+    // The shipped solenoid is a voltage axis (checked: the units below are a voltage's).
+    assert_eq!(
+        config.axis[0].command,
+        actuatord::daemon::config::CommandKind::Voltage
+    );
+    let (command_unit, force_per_command) = ("V", "N/V");
     let mut od = dictionary::build(&config).expect("dictionary");
     let declared_writable: Vec<_> = S::PARAMS
         .iter()
@@ -102,10 +104,10 @@ fn entries_and_writes_follow<S: Declared>(
             continue;
         }
         let e = od.entry(h.expect(p.name));
-        let unit = if p.unit == COMMAND_UNIT {
-            command_unit
-        } else {
-            p.unit
+        let unit = match p.unit {
+            COMMAND_UNIT => command_unit,
+            FORCE_PER_COMMAND_UNIT => force_per_command,
+            unit => unit,
         };
         assert_eq!(e.unit, unit, "{}", p.name);
         assert_eq!(e.description, p.doc, "{}", p.name);
@@ -128,7 +130,14 @@ fn entries_and_writes_follow<S: Declared>(
         let now = section(&config.axis[0]).and_then(|o| o.get(p.name));
         let wanted = match p.kind {
             Kind::Count => now.map(|v| if v + 3.0 <= p.max { v + 3.0 } else { v - 1.0 }),
-            _ => now.map(|v| v * 1.5),
+            // Another value within the declared range.
+            _ => now.map(|v| {
+                if v * 1.5 <= p.max {
+                    v * 1.5
+                } else {
+                    0.5 * (v + p.min)
+                }
+            }),
         }
         .expect("a number");
         let value = match od.entry(h).default {
@@ -182,6 +191,44 @@ fn a_declared_command_unit_follows_the_axis_command() {
         let h = od.handle_by_name(Some(0), "safe_command").expect("entry");
         assert_eq!(od.entry(h).unit, unit, "{command:?}");
     }
+}
+
+#[test]
+fn the_friction_compensation_entries_and_sdo_writes_are_the_declaration() {
+    entries_and_writes_follow::<FrictionCompensationSection>(
+        |a| a.friction_compensation.as_ref(),
+        index::FRICTION_COMPENSATION,
+        5,
+    );
+}
+
+#[test]
+fn a_friction_compensation_write_to_an_axis_without_one_starts_from_neutral() {
+    let mut config = shipped();
+    config.axis[0].friction_compensation = None;
+    let mut od = dictionary::build(&config).expect("dictionary");
+    let enabled = entry_of(&od, index::FRICTION_COMPENSATION, "enabled").expect("entry");
+    assert_eq!(od.value(enabled), Value::Boolean(false));
+    let h = entry_of(&od, index::FRICTION_COMPENSATION, "coulomb_pos_n").expect("entry");
+    od.stage_value(h, Value::Real64(0.3), NmtState::PreOperational)
+        .expect("within range");
+    for w in od.take_pending_writes().collect::<Vec<_>>() {
+        dictionary::apply_write(&mut config, &w).expect("applies");
+    }
+    let f = config.axis[0]
+        .friction_compensation
+        .clone()
+        .expect("created by the write");
+    assert_eq!(
+        f,
+        FrictionCompensationSection {
+            coulomb_pos_n: 0.3,
+            ..FrictionCompensationSection::neutral()
+        }
+    );
+    // Neutral: no compensation in either direction but the one written.
+    let ff = FrictionCompensationSection::neutral().feed_forward();
+    assert_eq!((ff.compensation(1.0), ff.compensation(-1.0)), (0.0, 0.0));
 }
 
 #[test]

@@ -13,6 +13,7 @@ mod adaptive_pneumatic;
 mod direction_p;
 mod dither;
 mod dither_section;
+mod friction_compensation_section;
 mod integrator_design;
 mod learned_table;
 mod linear;
@@ -29,6 +30,7 @@ pub use adaptive_pneumatic::{
 pub use direction_p::{DirectionalP, DirectionalPConfig};
 pub use dither::{Dither, DitherConfig};
 pub use dither_section::DitherSection;
+pub use friction_compensation_section::FrictionCompensationSection;
 pub use integrator_design::{effort_weight_for_pole, integrator_lq_gain};
 pub use learned_table::{
     LearnedCellState, LearnedTable, LearnedTableConfig, LearnedTableState, OperatingPoint,

@@ -219,7 +219,7 @@ pub struct AxisConfig {
     #[serde(default)]
     pub safe_command: f64,
     pub controller: ControllerConfig,
-    pub friction_compensation: Option<FrictionCompensationConfig>,
+    pub friction_compensation: Option<FrictionCompensationSection>,
     /// Adaptive friction compensation with a reference model; replaces the feed-forward of
     /// `[axis.friction_compensation]`, whose values (when present) are its starting point.
     pub adaptive_friction: Option<AdaptiveFrictionSection>,
@@ -277,19 +277,9 @@ pub struct ControllerConfig {
     pub output_max: f64,
 }
 
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct FrictionCompensationConfig {
-    /// Safety factor α, 0 < α ≤ 1.
-    pub alpha: f64,
-    pub coulomb_pos_n: f64,
-    pub coulomb_neg_n: f64,
-    /// Actuator force per command unit, N/V or N per unit duty.
-    pub force_gain_n_per_command: f64,
-    /// Errors below this count as zero for the sign, m.
-    #[serde(default)]
-    pub deadband_m: f64,
-}
+/// `[axis.friction_compensation]`, declared with its ranges and access where the feed-forward
+/// lives.
+pub use crate::control::FrictionCompensationSection;
 
 /// `[axis.learned_table]`: the grid of operating points the adapted friction compensation is
 /// learned on. The sensor frames carry no load, so the grid has one load band; the supply is
@@ -686,33 +676,9 @@ impl Config {
                 ));
             }
             if let Some(f) = &axis.friction_compensation {
-                if !(f.alpha > 0.0 && f.alpha <= 1.0) {
-                    return Err(bad(
-                        &at("friction_compensation.alpha"),
-                        format!("must be in (0, 1], got {}", f.alpha),
-                    ));
-                }
-                for (k, v) in [
-                    ("coulomb_pos_n", f.coulomb_pos_n),
-                    ("coulomb_neg_n", f.coulomb_neg_n),
-                ] {
-                    if !(v.is_finite() && v >= 0.0) {
-                        return Err(bad(
-                            &at(&format!("friction_compensation.{k}")),
-                            format!("must be >= 0, got {v}"),
-                        ));
-                    }
-                }
-                positive(
-                    &at("friction_compensation.force_gain_n_per_command"),
-                    f.force_gain_n_per_command,
-                )?;
-                if !(f.deadband_m.is_finite() && f.deadband_m >= 0.0) {
-                    return Err(bad(
-                        &at("friction_compensation.deadband_m"),
-                        format!("must be >= 0, got {}", f.deadband_m),
-                    ));
-                }
+                f.check().map_err(|e| {
+                    bad(&at(&format!("friction_compensation.{}", e.name)), e.reason)
+                })?;
             }
             axis.check_intelligence(self.cycle.period_s)
                 .map_err(|(key, rule)| bad(&at(&key), rule))?;

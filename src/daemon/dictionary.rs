@@ -2,7 +2,7 @@
 //! the way SDO writes reach the configuration at a cycle boundary.
 
 use super::axis::AxisStep;
-use super::config::{AxisConfig, CommandKind, Config, FrictionCompensationConfig};
+use super::config::{AxisConfig, CommandKind, Config, FrictionCompensationSection};
 use super::learned::AxisLearned;
 use super::record::CycleRecord;
 use crate::canopen::od::{BuildError, Handle, PendingWrite};
@@ -24,7 +24,6 @@ pub fn axis_parameters(a: &AxisConfig) -> AxisParameters {
     for (slot, v) in p.iter_mut().zip(&a.controller.p) {
         *slot = *v;
     }
-    let f = a.friction_compensation.as_ref();
     let l = &a.limits;
     let inf = f64::INFINITY;
     AxisParameters {
@@ -43,12 +42,7 @@ pub fn axis_parameters(a: &AxisConfig) -> AxisParameters {
         p,
         output_min: a.controller.output_min,
         output_max: a.controller.output_max,
-        friction_compensation_enabled: f.is_some(),
-        alpha: f.map_or(1.0, |f| f.alpha),
-        coulomb_pos_n: f.map_or(0.0, |f| f.coulomb_pos_n),
-        coulomb_neg_n: f.map_or(0.0, |f| f.coulomb_neg_n),
-        force_gain_n_per_command: f.map_or(1.0, |f| f.force_gain_n_per_command),
-        deadband_m: f.map_or(0.0, |f| f.deadband_m),
+        friction_compensation: a.friction_compensation.clone(),
         following_error_m: l.following_error_m.unwrap_or(inf),
         following_error_time_s: l.following_error_time_s,
         position_min_m: l.position_min_m.unwrap_or(-inf),
@@ -100,15 +94,9 @@ pub fn build(config: &Config) -> Result<ObjectDictionary, BuildError> {
 }
 
 /// The axis' friction compensation, created (neutral) by the first write to one of its keys.
-fn friction(a: &mut AxisConfig) -> &mut FrictionCompensationConfig {
+fn friction(a: &mut AxisConfig) -> &mut FrictionCompensationSection {
     a.friction_compensation
-        .get_or_insert(FrictionCompensationConfig {
-            alpha: 1.0,
-            coulomb_pos_n: 0.0,
-            coulomb_neg_n: 0.0,
-            force_gain_n_per_command: 1.0,
-            deadband_m: 0.0,
-        })
+        .get_or_insert_with(FrictionCompensationSection::neutral)
 }
 
 /// What a write asks the node to do.
@@ -214,11 +202,6 @@ pub fn apply_write(config: &mut Config, w: &PendingWrite) -> Result<WriteEffect,
                 friction(a);
             }
         }
-        "alpha" => friction(a).alpha = number,
-        "coulomb_pos_n" => friction(a).coulomb_pos_n = number,
-        "coulomb_neg_n" => friction(a).coulomb_neg_n = number,
-        "force_gain_n_per_command" => friction(a).force_gain_n_per_command = number,
-        "deadband_m" => friction(a).deadband_m = number,
         "following_error_m" => l.following_error_m = finite(number),
         "following_error_time_s" => l.following_error_time_s = number,
         "position_min_m" => l.position_min_m = finite(number),
@@ -239,8 +222,9 @@ pub fn apply_write(config: &mut Config, w: &PendingWrite) -> Result<WriteEffect,
     Ok(WriteEffect::Rebuild { axis })
 }
 
-/// A write to one of the declared sections (present in the dictionary only when configured):
-/// the object says which section, the entry's name is the declaration's, and so are the range
+/// A write to one of the declared sections (the intelligent ones are in the dictionary only
+/// when configured; a write to the friction compensation creates it): the object says which
+/// section, the entry's name is the declaration's, and so are the range
 /// checks.
 fn apply_intelligence_write(
     a: &mut AxisConfig,
@@ -250,6 +234,7 @@ fn apply_intelligence_write(
     let missing = || format!("{}: {name}: the section is not configured", w.id);
     let value = w.value.as_f64().unwrap_or(f64::NAN);
     let written = match index::split(w.id.index).map(|(_, offset)| offset) {
+        Some(index::FRICTION_COMPENSATION) => friction(a).set(name, value),
         Some(axis_intelligence::ADAPTIVE_FRICTION) => a
             .adaptive_friction
             .as_mut()

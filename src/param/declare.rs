@@ -264,6 +264,11 @@ pub trait Declared {
 /// ...), known only when the dictionary is built for an axis.
 pub const COMMAND_UNIT: &str = "command";
 
+/// The unit a declared parameter gives as `FORCE_PER_COMMAND_UNIT` is the drive's force per
+/// command unit (N/V, N per unit duty, ...), known only when the dictionary is built for an
+/// axis.
+pub const FORCE_PER_COMMAND_UNIT: &str = "N/command";
+
 /// Declare a configuration section: a struct that TOML deserialises (unknown keys refused)
 /// and whose fields each carry unit, range, access, a line of documentation and, where one
 /// makes sense, a default (a key without a default is required, unless its type is an

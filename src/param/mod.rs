@@ -70,4 +70,6 @@ pub fn range(name: &'static str, lo: f64, hi: f64) -> Result<(f64, f64), ParamEr
 
 mod declare;
 
-pub use declare::{Access, Declared, Kind, ParamSpec, ParamValue, COMMAND_UNIT};
+pub use declare::{
+    Access, Declared, Kind, ParamSpec, ParamValue, COMMAND_UNIT, FORCE_PER_COMMAND_UNIT,
+};

@@ -13,7 +13,7 @@ use super::plant::{
     corners, design_parameters, drive_damping, flexible, flexible_with_contact, AxisModel,
     Direction,
 };
-use crate::daemon::config::{AxisConfig, CommandKind, Config, FrictionCompensationConfig};
+use crate::daemon::config::{AxisConfig, CommandKind, Config, FrictionCompensationSection};
 use crate::physics::Family;
 
 /// The design goal: a dominant closed-loop pair of natural frequency `bandwidth` and damping
@@ -596,7 +596,7 @@ pub fn tune(
     // does not say on which flank of the play the gear is.
     let determined = fitted.intervals.contains_key(pos_n) || fitted.intervals.contains_key(neg_n);
     let added = match (&a.friction_compensation, coulomb) {
-        (None, Some(_)) if determined => Some(FrictionCompensationConfig {
+        (None, Some(_)) if determined => Some(FrictionCompensationSection {
             alpha: NEW_COMPENSATION_ALPHA,
             coulomb_pos_n: 0.0,
             coulomb_neg_n: 0.0,

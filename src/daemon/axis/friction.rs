@@ -23,15 +23,7 @@ pub struct FrictionCompensation {
 impl FrictionCompensation {
     /// The part an axis configuration asks for (empty when it asks for none of it).
     pub fn new(cfg: &AxisConfig, period_s: f64) -> Result<Self, ParamError> {
-        let feed_forward = cfg.friction_compensation.as_ref().map(|f| {
-            FrictionFeedForward::from_forces(
-                f.alpha,
-                f.coulomb_pos_n,
-                f.coulomb_neg_n,
-                f.force_gain_n_per_command,
-                f.deadband_m,
-            )
-        });
+        let feed_forward = cfg.friction_compensation.as_ref().map(|f| f.feed_forward());
         let adaptive = cfg
             .adaptive_friction_config(period_s)
             .map(AdaptiveFriction::new)

@@ -15,10 +15,11 @@
 //! Entry names are the config keys (and, for results, the names of the state file and the
 //! recording), unique within an axis.
 
+use super::daemon_objects::Command;
 use crate::canopen::od::EntrySpec;
 use crate::canopen::od::{ObjectDictionaryBuilder, Value};
 use crate::control::AdaptiveFrictionSection;
-use crate::param::{Access as ParamAccess, Declared, Kind, COMMAND_UNIT};
+use crate::param::{Access as ParamAccess, Declared, Kind, COMMAND_UNIT, FORCE_PER_COMMAND_UNIT};
 use crate::supervise::{ObserverSection, ParameterEstimationSection};
 
 /// Offsets inside an axis block (see `daemon_objects::index`).
@@ -117,9 +118,9 @@ const UP_NAMES: [&str; MAX_SCHEDULE_POINTS] = [
 ];
 
 /// The entries of a declared section: its parameters writable in pre-operational, with the
-/// declared unit (the axis' command unit where declared so), range and line of documentation,
-/// in declaration order.
-fn declared_entries<S: Declared>(section: &S, command_unit: &'static str) -> Vec<EntrySpec> {
+/// declared unit (the axis' command unit, or force per command unit, where declared so), range
+/// and line of documentation, in declaration order.
+pub(super) fn declared_entries<S: Declared>(section: &S, command: Command) -> Vec<EntrySpec> {
     S::PARAMS
         .iter()
         .filter(|p| p.access == ParamAccess::PreOperational)
@@ -140,10 +141,10 @@ fn declared_entries<S: Declared>(section: &S, command_unit: &'static str) -> Vec
                 ),
                 (Kind::Array | Kind::Flag | Kind::Path | Kind::Table, _) => return None,
             };
-            let unit = if p.unit == COMMAND_UNIT {
-                command_unit
-            } else {
-                p.unit
+            let unit = match p.unit {
+                COMMAND_UNIT => command.unit(),
+                FORCE_PER_COMMAND_UNIT => command.force_per_command(),
+                unit => unit,
             };
             Some(e.unit(unit).doc(p.doc))
         })
@@ -156,7 +157,7 @@ pub fn intelligence_objects(
     i: usize,
     at: impl Fn(u16) -> u16,
     p: &IntelligenceParameters,
-    command_unit: &'static str,
+    command: Command,
 ) -> ObjectDictionaryBuilder {
     let axis = Some(i);
     if let Some(a) = &p.adaptive_friction {
@@ -164,7 +165,7 @@ pub fn intelligence_objects(
             at(ADAPTIVE_FRICTION),
             format!("axis{i}_adaptive_friction"),
             axis,
-            declared_entries(a, command_unit),
+            declared_entries(a, command),
         );
     }
     if let Some(o) = &p.observer {
@@ -172,7 +173,7 @@ pub fn intelligence_objects(
             at(OBSERVER),
             format!("axis{i}_observer"),
             axis,
-            declared_entries(o, command_unit),
+            declared_entries(o, command),
         );
     }
     if let Some(e) = &p.estimation {
@@ -180,7 +181,7 @@ pub fn intelligence_objects(
             at(PARAMETER_ESTIMATION),
             format!("axis{i}_parameter_estimation"),
             axis,
-            declared_entries(e, command_unit),
+            declared_entries(e, command),
         );
     }
     if let Some(s) = &p.schedule {

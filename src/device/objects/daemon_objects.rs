@@ -21,10 +21,11 @@
 //! [`DeviceParameters`] and [`AxisParameters`] from it, and a tool that only needs the types
 //! uses their defaults.
 
-use super::axis_intelligence::{intelligence_objects, IntelligenceParameters};
+use super::axis_intelligence::{declared_entries, intelligence_objects, IntelligenceParameters};
 use crate::canopen::od::{
     BuildError, EntrySpec, ObjectDictionary, ObjectDictionaryBuilder, ObjectId, Value,
 };
+use crate::control::FrictionCompensationSection;
 
 /// Manufacturer blocks are 100h apart from 2000h; 2F00h is node-wide, so 15 axes fit.
 pub const MAX_AXES: usize = 15;
@@ -131,7 +132,7 @@ impl Command {
     }
 
     /// The unit of a controller coefficient: command per m of error.
-    fn per_m(self) -> &'static str {
+    pub fn per_m(self) -> &'static str {
         match self {
             Command::Voltage => "V/m",
             Command::Duty => "1/m",
@@ -141,7 +142,7 @@ impl Command {
     }
 
     /// The unit of the drive's force per command.
-    fn force_per_command(self) -> &'static str {
+    pub fn force_per_command(self) -> &'static str {
         match self {
             Command::Voltage => "N/V",
             Command::Duty => "N",
@@ -169,12 +170,8 @@ pub struct AxisParameters {
     pub p: [f64; 6],
     pub output_min: f64,
     pub output_max: f64,
-    pub friction_compensation_enabled: bool,
-    pub alpha: f64,
-    pub coulomb_pos_n: f64,
-    pub coulomb_neg_n: f64,
-    pub force_gain_n_per_command: f64,
-    pub deadband_m: f64,
+    /// `[axis.friction_compensation]`, if configured: its entries, as declared.
+    pub friction_compensation: Option<FrictionCompensationSection>,
     pub following_error_m: f64,
     pub following_error_time_s: f64,
     pub position_min_m: f64,
@@ -204,12 +201,7 @@ impl Default for AxisParameters {
             p: [0.0; 6],
             output_min: -1.0,
             output_max: 1.0,
-            friction_compensation_enabled: false,
-            alpha: 1.0,
-            coulomb_pos_n: 0.0,
-            coulomb_neg_n: 0.0,
-            force_gain_n_per_command: 1.0,
-            deadband_m: 0.0,
+            friction_compensation: None,
             following_error_m: f64::INFINITY,
             following_error_time_s: 0.25,
             position_min_m: f64::NEG_INFINITY,
@@ -499,7 +491,16 @@ fn axis_objects(
             .unit("m")
             .doc("observer disturbance state x4 learned for motion in - direction"),
     ];
-    let b = intelligence_objects(b, i, at, &a.intelligence, cu);
+    let mut friction = vec![EntrySpec::rw_preop(
+        "enabled",
+        a.friction_compensation.is_some(),
+    )];
+    let neutral = FrictionCompensationSection::neutral();
+    friction.extend(declared_entries(
+        a.friction_compensation.as_ref().unwrap_or(&neutral),
+        a.command,
+    ));
+    let b = intelligence_objects(b, i, at, &a.intelligence, a.command);
     Ok(b
         .record(
             at(index::AXIS),
@@ -530,24 +531,7 @@ fn axis_objects(
             at(index::FRICTION_COMPENSATION),
             format!("axis{i}_friction_compensation"),
             axis,
-            vec![
-                EntrySpec::rw_preop("enabled", a.friction_compensation_enabled),
-                EntrySpec::rw_preop("alpha", a.alpha)
-                    .between(1e-3, 1.0)
-                    .doc("safety factor of U_comp = alpha F_C / K sign(e)"),
-                EntrySpec::rw_preop("coulomb_pos_n", a.coulomb_pos_n)
-                    .unit("N")
-                    .between(0.0, 1e6),
-                EntrySpec::rw_preop("coulomb_neg_n", a.coulomb_neg_n)
-                    .unit("N")
-                    .between(0.0, 1e6),
-                EntrySpec::rw_preop("force_gain_n_per_command", a.force_gain_n_per_command)
-                    .unit(a.command.force_per_command())
-                    .between(POSITIVE_MIN, 1e9),
-                EntrySpec::rw_preop("deadband_m", a.deadband_m)
-                    .unit("m")
-                    .between(0.0, 1.0),
-            ],
+            friction,
         )
         .record(
             at(index::LIMITS),

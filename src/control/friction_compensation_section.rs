@@ -1,0 +1,59 @@
+//! `[axis.friction_compensation]`, declared once: the TOML section, its ranges, and the
+//! entries the dictionary offers for writing in pre-operational.
+
+use super::FrictionFeedForward;
+use crate::declare_section;
+use crate::param::FORCE_PER_COMMAND_UNIT;
+
+declare_section! {
+    /// `[axis.friction_compensation]`: the feed-forward `U_comp = α F_C± / K sign(e)` (see
+    /// [`FrictionFeedForward`]); with `[axis.adaptive_friction]`, its starting values.
+    pub struct FrictionCompensationSection {
+        /// Safety factor `α`, 0 < α ≤ 1.
+        alpha: f64 = {
+            unit: "", min: 1e-3, max: 1.0, access: PreOperational,
+            doc: "safety factor of U_comp = alpha F_C / K sign(e)",
+        },
+        /// Coulomb friction `F_C+` for motion in + direction, N.
+        coulomb_pos_n: f64 = {
+            unit: "N", min: 0.0, max: 1e6, access: PreOperational, doc: "",
+        },
+        /// Coulomb friction `F_C-` for motion in - direction, N.
+        coulomb_neg_n: f64 = {
+            unit: "N", min: 0.0, max: 1e6, access: PreOperational, doc: "",
+        },
+        /// `K`, the actuator's force per command unit: N/V, or N per unit duty.
+        force_gain_n_per_command: f64 = {
+            unit: FORCE_PER_COMMAND_UNIT, min: 1e-9, max: 1e9, access: PreOperational, doc: "",
+        },
+        /// Errors below this count as zero for the sign, m.
+        deadband_m: f64 = {
+            unit: "m", min: 0.0, max: 1.0, access: PreOperational, doc: "", default: 0.0,
+        },
+    }
+}
+
+impl FrictionCompensationSection {
+    /// A compensation that compensates nothing: what the dictionary shows for an axis without
+    /// the section, and what a first write to one of its entries starts from.
+    pub fn neutral() -> Self {
+        Self {
+            alpha: 1.0,
+            coulomb_pos_n: 0.0,
+            coulomb_neg_n: 0.0,
+            force_gain_n_per_command: 1.0,
+            deadband_m: 0.0,
+        }
+    }
+
+    /// The feed-forward of these values.
+    pub fn feed_forward(&self) -> FrictionFeedForward {
+        FrictionFeedForward::from_forces(
+            self.alpha,
+            self.coulomb_pos_n,
+            self.coulomb_neg_n,
+            self.force_gain_n_per_command,
+            self.deadband_m,
+        )
+    }
+}
