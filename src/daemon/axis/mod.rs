@@ -7,8 +7,10 @@
 //! [`Axis::new`]; the stages allocate nothing.
 
 use super::config::{cycles, AxisConfig, CommandKind, SetpointStep};
+mod estimation;
 mod friction;
 mod law;
+mod observer;
 mod schedule;
 
 use super::learned::AxisLearned;
@@ -19,14 +21,14 @@ use crate::device::{
 };
 use crate::recording::Stage;
 use crate::supervise::{
-    diagnose, symptoms, Band, DiagnosedFault, DisturbanceObserver, EstimatorHealth, FaultMachine,
-    FaultMachineOutput, FaultState, FaultSymptomTable, LimitSupervisor, Limits, Nominal,
-    NominalLearner, ObserverOutput, ParameterEstimator, PhysicalParameters, SupervisedFault,
-    SupervisedFaults, SupervisionInput, SupervisionLevel, SupervisionOutput, Symptom,
-    SymptomThresholds, PHYSICAL_PARAMS,
+    Band, DiagnosedFault, EstimatorHealth, FaultMachine, FaultMachineOutput, FaultState,
+    LimitSupervisor, Limits, PhysicalParameters, SupervisedFault, SupervisedFaults,
+    SupervisionInput, SupervisionLevel, SupervisionOutput, Symptom, PHYSICAL_PARAMS,
 };
+use estimation::Estimation;
 use friction::FrictionCompensation;
 use law::ControlLaw;
+use observer::Observer;
 use schedule::SupplySchedule;
 
 /// What the axis has learned or runs with this cycle (the tuned-parameter frames).
@@ -181,63 +183,6 @@ impl AxisStep {
     }
 }
 
-/// Windowed parameter estimation in operation: each window of moving samples is one short test;
-/// the first windows give the nominal parameters (and the spread of a window's estimate) unless
-/// they are configured.
-struct Estimation {
-    estimator: ParameterEstimator,
-    window_updates: u64,
-    nominal: Option<Nominal>,
-    learner: NominalLearner,
-    nominal_windows: u32,
-    thresholds: SymptomThresholds,
-    table: FaultSymptomTable,
-    max_distance: usize,
-    confirm_windows: u32,
-    candidate: Option<DiagnosedFault>,
-    candidate_windows: u32,
-    /// The diagnosis confirmed by `confirm_windows` windows in a row.
-    present: Option<DiagnosedFault>,
-    confidence: f64,
-    symptoms: [Symptom; PHYSICAL_PARAMS],
-    last: Option<PhysicalParameters>,
-}
-
-impl Estimation {
-    fn step(&mut self, position: f64, command: f64) {
-        self.estimator.step(position, command);
-        if self.estimator.updates() < self.window_updates {
-            return;
-        }
-        let estimate = self.estimator.physical_with_deviation();
-        self.estimator.reset();
-        // A window whose polynomial has no physical reading tells nothing: skip it.
-        let Some(estimate) = estimate else { return };
-        self.last = Some(estimate.p);
-        let Some(nominal) = self.nominal else {
-            self.learner.add(&estimate);
-            if self.learner.count() >= self.nominal_windows {
-                self.nominal = self.learner.nominal();
-            }
-            return;
-        };
-        self.symptoms = symptoms(&estimate, &nominal, &self.thresholds);
-        let d = diagnose(&self.table, &self.symptoms, self.max_distance);
-        if d.fault == self.candidate {
-            self.candidate_windows = self.candidate_windows.saturating_add(1);
-        } else {
-            self.candidate = d.fault;
-            self.candidate_windows = 1;
-        }
-        self.confidence = d.confidence;
-        self.present = if self.candidate_windows >= self.confirm_windows {
-            self.candidate
-        } else {
-            None
-        };
-    }
-}
-
 /// The supervised fault of a diagnosis; `None` for a fault the fault machine has no entry for
 /// (its symptoms would still be on the bus).
 fn supervised(fault: DiagnosedFault) -> Option<SupervisedFault> {
@@ -278,8 +223,8 @@ pub struct Axis {
     friction: FrictionCompensation,
     /// Gain and command-limit factors scheduled on the supply, and its scheduled band.
     supply_schedule: SupplySchedule,
-    observer: Option<DisturbanceObserver>,
-    observer_out: ObserverOutput,
+    /// The disturbance observer and its last output.
+    observer: Observer,
     estimation: Option<Estimation>,
     machine: FaultMachine,
     model: ModelSupervision,
@@ -349,36 +294,8 @@ impl Axis {
             heartbeat_timeout_s: l.heartbeat_timeout_s,
         };
         let schedule = SupplySchedule::new(cfg, period_s)?;
-        let observer = cfg
-            .observer_config(period_s)
-            .map(DisturbanceObserver::new)
-            .transpose()
-            .map_err(unvalidated)?;
-        let estimation = match &cfg.parameter_estimation {
-            Some(p) => Some(Estimation {
-                estimator: ParameterEstimator::new(p.estimator_config(period_s))
-                    .map_err(unvalidated)?,
-                window_updates: p.window_updates,
-                nominal: p
-                    .nominal
-                    .map(|n| Nominal::exact(PhysicalParameters { values: n.values() })),
-                learner: NominalLearner::default(),
-                nominal_windows: p.nominal_windows.max(1),
-                thresholds: p.symptom_thresholds(),
-                table: p
-                    .load_fault_table()
-                    .map_err(|e| ControllerError::File(e.to_string()))?,
-                max_distance: usize::from(p.max_distance),
-                confirm_windows: p.confirm_windows.max(1),
-                candidate: None,
-                candidate_windows: 0,
-                present: None,
-                confidence: 1.0,
-                symptoms: [Symptom::Zero; PHYSICAL_PARAMS],
-                last: None,
-            }),
-            None => None,
-        };
+        let observer = Observer::new(cfg, period_s)?;
+        let estimation = Estimation::new(cfg, period_s)?;
         let machine = FaultMachine::new(&cfg.fault_machine_config()).map_err(unvalidated)?;
         Ok(Self {
             name: cfg.name.clone(),
@@ -390,11 +307,6 @@ impl Axis {
             friction,
             supply_schedule: schedule,
             observer,
-            observer_out: ObserverOutput {
-                x4_pos: f64::NAN,
-                x4_neg: f64::NAN,
-                ..Default::default()
-            },
             estimation,
             machine,
             model: ModelSupervision {
@@ -510,8 +422,8 @@ impl Axis {
     pub fn learned(&self) -> AxisLearned {
         AxisLearned {
             friction_compensation: self.friction.learned(),
-            observer_bands: self.observer.as_ref().and_then(DisturbanceObserver::bands),
-            nominal: self.estimation.as_ref().and_then(|e| e.nominal),
+            observer_bands: self.observer.bands(),
+            nominal: self.estimation.as_ref().and_then(Estimation::nominal),
         }
     }
 
@@ -521,18 +433,11 @@ impl Axis {
         if let Some(levels) = learned.friction_compensation {
             self.friction.restore(levels);
         }
-        if let (Some(o), Some(bands)) = (self.observer.as_mut(), learned.observer_bands) {
-            o.restore_bands(bands);
+        if let Some(bands) = learned.observer_bands {
+            self.observer.restore_bands(bands);
         }
         if let (Some(e), Some(nominal)) = (self.estimation.as_mut(), learned.nominal) {
-            let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
-            if e.nominal.is_none()
-                && finite(&nominal.p.values)
-                && finite(&nominal.deviation)
-                && finite(&nominal.window_spread)
-            {
-                e.nominal = Some(nominal);
-            }
+            e.restore_nominal(nominal);
         }
     }
 
@@ -634,9 +539,7 @@ impl Axis {
         if !self.fresh {
             return;
         }
-        if let Some(o) = self.observer.as_mut() {
-            self.observer_out = o.step(self.sensor.position, self.last_command);
-        }
+        self.observer.step(self.sensor.position, self.last_command);
     }
 
     /// Stage "supervision": limit checks on this cycle's readings.
@@ -659,13 +562,13 @@ impl Axis {
         if !limits.latched.is_empty() {
             present.insert(SupervisedFault::LimitViolation);
         }
-        if self.observer_out.friction_rise {
+        if self.observer.output().friction_rise {
             present.insert(SupervisedFault::ObserverFriction);
         }
         if let Some(f) = self
             .estimation
             .as_ref()
-            .and_then(|e| e.present)
+            .and_then(Estimation::present)
             .and_then(supervised)
         {
             present.insert(f);
@@ -687,15 +590,15 @@ impl Axis {
                     | SupervisedFault::CurrentGain
                     | SupervisedFault::SensorOffset,
                     Some(e),
-                ) => e.confidence,
+                ) => e.confidence(),
                 _ => 1.0,
             };
         }
         self.model.machine = machine;
         if let Some(e) = &self.estimation {
-            self.model.symptoms = e.symptoms;
-            self.model.nominal_learned = e.nominal.is_some();
-            self.model.estimate = e.last;
+            self.model.symptoms = e.symptoms();
+            self.model.nominal_learned = e.nominal().is_some();
+            self.model.estimate = e.last();
         }
         // The published state: the fault machine's decision, at least "warning" while a limit
         // is exceeded but not yet latched.
@@ -757,9 +660,9 @@ impl Axis {
             drive_gain_up_m_per_s: p.estimate_up_m_per_s,
             adapted_down: p.source_down == GainSource::Adapted,
             adapted_up: p.source_up == GainSource::Adapted,
-            observer_x4_pos: self.observer_out.x4_pos,
-            observer_x4_neg: self.observer_out.x4_neg,
-            observer_learned: self.observer_out.learned,
+            observer_x4_pos: self.observer.output().x4_pos,
+            observer_x4_neg: self.observer.output().x4_neg,
+            observer_learned: self.observer.output().learned,
         };
         AxisStep {
             command: self.last_command,
