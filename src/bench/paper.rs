@@ -10,9 +10,10 @@ use serde::Serialize;
 use super::fault_table::{FaultTableOptions, Simulation};
 use crate::control::{
     integrator_lq_gain, AdaptiveFriction, AdaptiveFrictionConfig, DirectionalP, DirectionalPConfig,
-    DiscreteController, Dither, DitherConfig, ParamError, PneumaticAdaptive,
+    DiscreteController, Dither, DitherConfig, LinearController, ParamError, PneumaticAdaptive,
     PneumaticAdaptiveConfig, SchedulePoint,
 };
+use crate::daemon::axis::ControlLaw;
 use crate::physics::{plant_from_str, Fault, FaultKind};
 use crate::supervise::{
     diagnose, symptoms, DiagnosedFault, Diagnosis, DisturbanceObserver, FaultSymptomTable,
@@ -260,7 +261,9 @@ pub fn solenoid_small_step_with(
     let mut plant = plant_from_str(plant_text, name)?;
     let t0 = SOLENOID_PERIOD_S;
     // Paper PIDT1, Y in mm → ×1000 for V per m.
-    let mut pid = DiscreteController::pidt1([2231.0, -4204.0, 2000.0], 0.616, 0.0, 24.0)?;
+    let mut law = ControlLaw::linear(LinearController::Discrete(Box::new(
+        DiscreteController::pidt1([2231.0, -4204.0, 2000.0], 0.616, 0.0, 24.0)?,
+    )));
     let mut friction = AdaptiveFriction::new(friction_config)?;
     let mut dither = solenoid_dither()?;
     let hold = (SMALL_STEP_HOLD_S / t0).round() as usize;
@@ -276,9 +279,9 @@ pub fn solenoid_small_step_with(
                 SmallStepMode::AdaptiveFriction => friction.step(w, y).compensation,
                 SmallStepMode::AdaptiveDither => dither.step(w, y),
             };
-            let u_pid = pid.propose(e);
-            let u = (u_pid + comp).clamp(0.0, 24.0);
-            pid.commit(e, u - comp);
+            // The daemon's composition: the compensation (or dither) added to the controller's
+            // output within its limits, the controller's own share fed back.
+            let u = law.command(e, y, comp, 0.0, 1.0);
             plant.step(u, t0);
             y = plant.measure().position;
             if i >= SMALL_STEP_WARMUP && k >= hold - tail {

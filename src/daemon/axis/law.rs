@@ -1,7 +1,8 @@
 //! The axis' control law as one part: the linear controller (discrete or state-space) with the
 //! static correction, or the pneumatic drive's scheduled (and adapted) direction P controller.
 //! Built once from `[axis.controller]`, `[axis.correction]` and `[axis.schedule]`; it composes
-//! the command with what the friction part adds, within the limits the supply allows.
+//! the command with what the friction part adds, within the limits the supply allows. The
+//! benchmarks compose theirs with the same type ([`ControlLaw::linear`]).
 
 use super::super::config::AxisConfig;
 use crate::control::robust::StateSpaceController;
@@ -55,6 +56,18 @@ impl ControlLaw {
             pneumatic_step: PneumaticStep::default(),
             pneumatic_eigenvalue: 1.0,
         })
+    }
+
+    /// A linear controller alone (no correction, no direction P controller), as a benchmark
+    /// runs the paper's controller.
+    pub fn linear(controller: LinearController) -> Self {
+        Self {
+            controller,
+            correction: None,
+            pneumatic: None,
+            pneumatic_step: PneumaticStep::default(),
+            pneumatic_eigenvalue: 1.0,
+        }
     }
 
     /// Restart bumplessly from the command `u`.

@@ -27,7 +27,7 @@ use crate::supervise::{
 };
 use estimation::Estimation;
 use friction::FrictionCompensation;
-use law::ControlLaw;
+pub use law::ControlLaw;
 use observer::Observer;
 use schedule::SupplySchedule;
 
