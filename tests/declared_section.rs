@@ -14,7 +14,7 @@ use actuatord::device::objects::axis_intelligence::{
 };
 use actuatord::device::objects::index;
 use actuatord::param::{Access, Declared, Kind, COMMAND_UNIT, FORCE_PER_COMMAND_UNIT};
-use actuatord::supervise::{ObserverSection, ParameterEstimationSection};
+use actuatord::supervise::{LimitsSection, ObserverSection, ParameterEstimationSection};
 use std::path::Path;
 
 fn shipped() -> Config {
@@ -229,6 +229,62 @@ fn a_friction_compensation_write_to_an_axis_without_one_starts_from_neutral() {
     // Neutral: no compensation in either direction but the one written.
     let ff = FrictionCompensationSection::neutral().feed_forward();
     assert_eq!((ff.compensation(1.0), ff.compensation(-1.0)), (0.0, 0.0));
+}
+
+#[test]
+fn the_limits_entries_and_sdo_writes_are_the_declaration() {
+    entries_and_writes_follow::<LimitsSection>(|a| Some(&a.limits), index::LIMITS, 13);
+}
+
+#[test]
+fn a_limit_left_out_is_an_infinite_bound_in_the_dictionary_and_back() {
+    let mut config = shipped();
+    config.axis[0].limits.current_max_a = None;
+    let mut od = dictionary::build(&config).expect("dictionary");
+    let h = entry_of(&od, index::LIMITS, "current_max_a").expect("entry");
+    assert_eq!(od.value(h), Value::Real64(f64::INFINITY), "not watched");
+    od.stage_value(h, Value::Real64(2.5), NmtState::PreOperational)
+        .expect("within range");
+    let h = entry_of(&od, index::LIMITS, "position_min_m").expect("entry");
+    od.stage_value(
+        h,
+        Value::Real64(f64::NEG_INFINITY),
+        NmtState::PreOperational,
+    )
+    .expect("an open bound");
+    for w in od.take_pending_writes().collect::<Vec<_>>() {
+        dictionary::apply_write(&mut config, &w).expect("applies");
+    }
+    assert_eq!(config.axis[0].limits.current_max_a, Some(2.5));
+    assert_eq!(
+        config.axis[0].limits.position_min_m, None,
+        "no longer watched"
+    );
+
+    // In the file, "not watched" is a key left out; an infinite value is refused by name.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("config/solenoid.toml");
+    let text = std::fs::read_to_string(&path).expect("shipped config");
+    let bad = text.replacen(
+        "[axis.limits]\n",
+        "[axis.limits]\nheartbeat_timeout_s = inf\n",
+        1,
+    );
+    let bad = if text.contains("\nheartbeat_timeout_s") {
+        // The shipped file sets it: drop its own line so the key is given once.
+        let own = text
+            .lines()
+            .find(|l| l.starts_with("heartbeat_timeout_s"))
+            .expect("line");
+        bad.replacen(&format!("{own}\n"), "", 1)
+    } else {
+        bad
+    };
+    let err = Config::from_toml(&bad, &path).expect_err("infinite");
+    assert!(
+        err.to_string()
+            .contains("limits.heartbeat_timeout_s must be finite"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -239,7 +239,7 @@ pub struct AxisConfig {
     pub fault_reactions: Option<FaultReactionsSection>,
     /// Adapted friction compensation stored by operating point (needs `[axis.adaptive_friction]`).
     pub learned_table: Option<LearnedTableSection>,
-    pub limits: LimitsConfig,
+    pub limits: LimitsSection,
     /// A setpoint schedule; setpoint frames on the bus override it until its next entry.
     #[serde(default)]
     pub setpoints: Vec<SetpointStep>,
@@ -439,46 +439,8 @@ pub struct FaultReactionsSection {
     pub sensor_offset: Option<ReactionName>,
 }
 
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct LimitsConfig {
-    pub following_error_m: Option<f64>,
-    #[serde(default = "default_following_error_time")]
-    pub following_error_time_s: f64,
-    pub position_min_m: Option<f64>,
-    pub position_max_m: Option<f64>,
-    pub current_max_a: Option<f64>,
-    #[serde(default = "default_short_time")]
-    pub current_time_s: f64,
-    pub supply_voltage_min_v: Option<f64>,
-    pub supply_voltage_max_v: Option<f64>,
-    pub supply_pressure_min_pa: Option<f64>,
-    pub supply_pressure_max_pa: Option<f64>,
-    /// The scheduled band, inside the band above: outside it the axis warns (EMCY, fault
-    /// state `warning`) and goes on with the schedule's gains and command limits.
-    pub supply_voltage_scheduled_min_v: Option<f64>,
-    pub supply_voltage_scheduled_max_v: Option<f64>,
-    pub supply_pressure_scheduled_min_pa: Option<f64>,
-    pub supply_pressure_scheduled_max_pa: Option<f64>,
-    /// Persistence of the supply checks, hard band and scheduled band alike.
-    #[serde(default = "default_short_time")]
-    pub supply_time_s: f64,
-    /// Time without sensor frames before `sensor_timeout` latches.
-    #[serde(default = "default_sensor_timeout")]
-    pub sensor_timeout_s: f64,
-    /// Time without the actuator node's heartbeat before `heartbeat_lost` latches; absent = not watched.
-    pub heartbeat_timeout_s: Option<f64>,
-}
-
-fn default_following_error_time() -> f64 {
-    0.25
-}
-fn default_short_time() -> f64 {
-    0.01
-}
-fn default_sensor_timeout() -> f64 {
-    0.02
-}
+/// `[axis.limits]`, declared with its ranges and access where the supervision lives.
+pub use crate::supervise::LimitsSection;
 
 #[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -686,22 +648,8 @@ impl Config {
                 positive(&at("setpoint_rate_max_m_per_s"), v)?;
             }
             let l = &axis.limits;
-            if let Some(v) = l.following_error_m {
-                positive(&at("limits.following_error_m"), v)?;
-            }
-            positive(
-                &at("limits.following_error_time_s"),
-                l.following_error_time_s,
-            )?;
-            positive(&at("limits.current_time_s"), l.current_time_s)?;
-            positive(&at("limits.supply_time_s"), l.supply_time_s)?;
-            positive(&at("limits.sensor_timeout_s"), l.sensor_timeout_s)?;
-            if let Some(v) = l.heartbeat_timeout_s {
-                positive(&at("limits.heartbeat_timeout_s"), v)?;
-            }
-            if let Some(v) = l.current_max_a {
-                positive(&at("limits.current_max_a"), v)?;
-            }
+            l.check()
+                .map_err(|e| bad(&at(&format!("limits.{}", e.name)), e.reason))?;
             for (lo_key, lo, hi_key, hi) in [
                 (
                     "limits.position_min_m",

@@ -24,7 +24,6 @@ pub fn axis_parameters(a: &AxisConfig) -> AxisParameters {
     for (slot, v) in p.iter_mut().zip(&a.controller.p) {
         *slot = *v;
     }
-    let l = &a.limits;
     let inf = f64::INFINITY;
     AxisParameters {
         name: a.name.clone(),
@@ -43,19 +42,7 @@ pub fn axis_parameters(a: &AxisConfig) -> AxisParameters {
         output_min: a.controller.output_min,
         output_max: a.controller.output_max,
         friction_compensation: a.friction_compensation.clone(),
-        following_error_m: l.following_error_m.unwrap_or(inf),
-        following_error_time_s: l.following_error_time_s,
-        position_min_m: l.position_min_m.unwrap_or(-inf),
-        position_max_m: l.position_max_m.unwrap_or(inf),
-        current_max_a: l.current_max_a.unwrap_or(inf),
-        current_time_s: l.current_time_s,
-        supply_voltage_min_v: l.supply_voltage_min_v.unwrap_or(-inf),
-        supply_voltage_max_v: l.supply_voltage_max_v.unwrap_or(inf),
-        supply_pressure_min_pa: l.supply_pressure_min_pa.unwrap_or(-inf),
-        supply_pressure_max_pa: l.supply_pressure_max_pa.unwrap_or(inf),
-        supply_time_s: l.supply_time_s,
-        sensor_timeout_s: l.sensor_timeout_s,
-        heartbeat_timeout_s: l.heartbeat_timeout_s.unwrap_or(inf),
+        limits: a.limits.clone(),
         intelligence: intelligence_parameters(a),
     }
 }
@@ -189,7 +176,6 @@ pub fn apply_write(config: &mut Config, w: &PendingWrite) -> Result<WriteEffect,
         }
         return Ok(WriteEffect::Rebuild { axis });
     }
-    let l = &mut a.limits;
     match name {
         "output_min" => a.controller.output_min = number,
         "output_max" => a.controller.output_max = number,
@@ -202,19 +188,6 @@ pub fn apply_write(config: &mut Config, w: &PendingWrite) -> Result<WriteEffect,
                 friction(a);
             }
         }
-        "following_error_m" => l.following_error_m = finite(number),
-        "following_error_time_s" => l.following_error_time_s = number,
-        "position_min_m" => l.position_min_m = finite(number),
-        "position_max_m" => l.position_max_m = finite(number),
-        "current_max_a" => l.current_max_a = finite(number),
-        "current_time_s" => l.current_time_s = number,
-        "supply_voltage_min_v" => l.supply_voltage_min_v = finite(number),
-        "supply_voltage_max_v" => l.supply_voltage_max_v = finite(number),
-        "supply_pressure_min_pa" => l.supply_pressure_min_pa = finite(number),
-        "supply_pressure_max_pa" => l.supply_pressure_max_pa = finite(number),
-        "supply_time_s" => l.supply_time_s = number,
-        "sensor_timeout_s" => l.sensor_timeout_s = number,
-        "heartbeat_timeout_s" => l.heartbeat_timeout_s = finite(number),
         other => {
             return apply_intelligence_write(a, w, other).map(|()| WriteEffect::Rebuild { axis })
         }
@@ -235,6 +208,7 @@ fn apply_intelligence_write(
     let value = w.value.as_f64().unwrap_or(f64::NAN);
     let written = match index::split(w.id.index).map(|(_, offset)| offset) {
         Some(index::FRICTION_COMPENSATION) => friction(a).set(name, value),
+        Some(index::LIMITS) => a.limits.set(name, value),
         Some(axis_intelligence::ADAPTIVE_FRICTION) => a
             .adaptive_friction
             .as_mut()

@@ -49,12 +49,22 @@ pub struct ParamSpec {
     /// One line for the dictionary, the EDS and the documentation (may be empty).
     pub doc: &'static str,
     pub access: Access,
+    /// For an optional key: the value the dictionary shows while it is left out (an infinite
+    /// bound: "not watched"). A write of an infinite value leaves it out again, and a
+    /// configured value must be finite.
+    pub absent: Option<f64>,
 }
 
 impl ParamSpec {
     /// `value` is within the declared range (each element of an array).
     pub fn check(&self, value: f64) -> Result<(), ParamError> {
         let integral = self.kind != Kind::Count || value.fract() == 0.0;
+        if value.is_infinite() && self.absent.is_some() {
+            return Err(ParamError::new(
+                self.name,
+                format!("must be finite, got {value} (leave the key out instead)"),
+            ));
+        }
         if !value.is_finite() && self.min == f64::MIN && self.max == f64::MAX {
             return Err(ParamError::new(
                 self.name,
@@ -299,6 +309,7 @@ macro_rules! declare_section {
                     $(max: $max:expr,)?
                     access: $access:ident,
                     doc: $doc:literal
+                    $(, absent: $absent:expr)?
                     $(, default: $default:expr)? $(,)?
                 }
             ),* $(,)?
@@ -331,6 +342,17 @@ macro_rules! declare_section {
             }
         }
 
+        impl $name {
+            /// The section with every key left out: its declared defaults, `None` for optional
+            /// keys; `None` when a key has neither.
+            #[allow(dead_code)]
+            pub fn defaults() -> Option<Self> {
+                Some($name {
+                    $( $field: $crate::__declared_fallback!($ty $(, $default)?)?, )*
+                })
+            }
+        }
+
         impl $crate::param::Declared for $name {
             const PARAMS: &'static [$crate::param::ParamSpec] = &[
                 $(
@@ -344,21 +366,39 @@ macro_rules! declare_section {
                         max: $crate::__declared_or!(f64::INFINITY $(, $max)?),
                         doc: $doc,
                         access: $crate::param::Access::$access,
+                        absent: $crate::__declared_or!(None $(, Some($absent))?),
                     },
                 )*
             ];
 
             fn get(&self, name: &str) -> Option<f64> {
-                match name {
+                let value = match name {
                     $( stringify!($field) => $crate::param::ParamValue::scalar(&self.$field), )*
                     _ => None,
-                }
+                };
+                value.or_else(|| <Self as $crate::param::Declared>::spec(name)?.absent)
             }
 
             fn set(&mut self, name: &str, value: f64) -> Result<(), $crate::param::ParamError> {
                 let spec = <Self as $crate::param::Declared>::spec(name).ok_or_else(|| {
                     $crate::param::ParamError::new("parameter", format!("no parameter {name}"))
                 })?;
+                if spec.absent.is_some() && value.is_infinite() {
+                    // An infinite bound: "not watched", the key left out.
+                    let cleared = match name {
+                        $( stringify!($field) => match <$ty as $crate::param::ParamValue>::absent() {
+                            Some(absent) => {
+                                self.$field = absent;
+                                true
+                            }
+                            None => false,
+                        }, )*
+                        _ => false,
+                    };
+                    if cleared {
+                        return Ok(());
+                    }
+                }
                 spec.check(value)?;
                 let assigned = match name {
                     $( stringify!($field) => $crate::param::ParamValue::assign(&mut self.$field, value), )*
@@ -407,6 +447,19 @@ macro_rules! __declared_default {
     };
     ($field:ident, $ty:ty, $default:expr) => {
         $default
+    };
+}
+
+/// The value of a key left out, if it has one: its declared default, or `None` of an optional
+/// key. Used by [`declare_section!`] for `defaults()`.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __declared_fallback {
+    ($ty:ty) => {
+        <$ty as $crate::param::ParamValue>::absent()
+    };
+    ($ty:ty, $default:expr) => {
+        Some($default)
     };
 }
 

@@ -2,9 +2,11 @@
 
 mod fault;
 mod limits;
+mod limits_section;
 
 pub use fault::{FaultFlags, FaultKind, FaultState};
 pub use limits::{Band, LimitSupervisor, Limits, SupervisionInput, SupervisionOutput};
+pub use limits_section::LimitsSection;
 mod estimator_supervisor;
 mod fault_machine;
 pub mod fault_table;

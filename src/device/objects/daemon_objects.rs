@@ -26,6 +26,7 @@ use crate::canopen::od::{
     BuildError, EntrySpec, ObjectDictionary, ObjectDictionaryBuilder, ObjectId, Value,
 };
 use crate::control::FrictionCompensationSection;
+use crate::supervise::LimitsSection;
 
 /// Manufacturer blocks are 100h apart from 2000h; 2F00h is node-wide, so 15 axes fit.
 pub const MAX_AXES: usize = 15;
@@ -172,19 +173,8 @@ pub struct AxisParameters {
     pub output_max: f64,
     /// `[axis.friction_compensation]`, if configured: its entries, as declared.
     pub friction_compensation: Option<FrictionCompensationSection>,
-    pub following_error_m: f64,
-    pub following_error_time_s: f64,
-    pub position_min_m: f64,
-    pub position_max_m: f64,
-    pub current_max_a: f64,
-    pub current_time_s: f64,
-    pub supply_voltage_min_v: f64,
-    pub supply_voltage_max_v: f64,
-    pub supply_pressure_min_pa: f64,
-    pub supply_pressure_max_pa: f64,
-    pub supply_time_s: f64,
-    pub sensor_timeout_s: f64,
-    pub heartbeat_timeout_s: f64,
+    /// `[axis.limits]`: its entries, as declared.
+    pub limits: LimitsSection,
     pub intelligence: IntelligenceParameters,
 }
 
@@ -202,19 +192,8 @@ impl Default for AxisParameters {
             output_min: -1.0,
             output_max: 1.0,
             friction_compensation: None,
-            following_error_m: f64::INFINITY,
-            following_error_time_s: 0.25,
-            position_min_m: f64::NEG_INFINITY,
-            position_max_m: f64::INFINITY,
-            current_max_a: f64::INFINITY,
-            current_time_s: 0.01,
-            supply_voltage_min_v: f64::NEG_INFINITY,
-            supply_voltage_max_v: f64::INFINITY,
-            supply_pressure_min_pa: f64::NEG_INFINITY,
-            supply_pressure_max_pa: f64::INFINITY,
-            supply_time_s: 0.01,
-            sensor_timeout_s: 0.02,
-            heartbeat_timeout_s: f64::INFINITY,
+            limits: LimitsSection::defaults()
+                .expect("every key of [axis.limits] has a default or may be left out"),
             intelligence: IntelligenceParameters::default(),
         }
     }
@@ -231,9 +210,6 @@ fn command_bound(a: &AxisParameters) -> f64 {
 
 /// Coefficients are refused beyond this magnitude (and when not finite).
 const COEFFICIENT_BOUND: f64 = 1e12;
-/// Supervision times: at least 100 µs, at most an hour.
-const TIME_MIN_S: f64 = 1e-4;
-const TIME_MAX_S: f64 = 3600.0;
 /// Smallest value of a quantity that must be > 0.
 const POSITIVE_MIN: f64 = 1e-9;
 
@@ -344,7 +320,10 @@ pub fn daemon_dictionary(
             .map(|(i, a)| {
                 EntrySpec::ro(
                     AXIS_NAMES[i],
-                    consumer_heartbeat_entry(a.actuator_node_id, a.heartbeat_timeout_s),
+                    consumer_heartbeat_entry(
+                        a.actuator_node_id,
+                        a.limits.heartbeat_timeout_s.unwrap_or(f64::INFINITY),
+                    ),
                 )
                 .doc("actuator node id << 16 | heartbeat timeout in ms (0 = not watched); mirrors limits.heartbeat_timeout_s, write that one")
             })
@@ -430,42 +409,7 @@ fn axis_objects(
             .between(-c, c)
             .doc("upper output limit"),
     );
-    let limits = vec![
-        EntrySpec::rw_preop("following_error_m", a.following_error_m)
-            .unit("m")
-            .between(POSITIVE_MIN, f64::INFINITY)
-            .doc("largest |setpoint - position| before following_error is raised; inf = not watched"),
-        EntrySpec::rw_preop("following_error_time_s", a.following_error_time_s)
-            .unit("s")
-            .between(TIME_MIN_S, TIME_MAX_S),
-        EntrySpec::rw_preop("position_min_m", a.position_min_m)
-            .unit("m")
-            .doc("-inf = not watched"),
-        EntrySpec::rw_preop("position_max_m", a.position_max_m)
-            .unit("m")
-            .doc("inf = not watched"),
-        EntrySpec::rw_preop("current_max_a", a.current_max_a)
-            .unit("A")
-            .between(POSITIVE_MIN, f64::INFINITY)
-            .doc("inf = not watched"),
-        EntrySpec::rw_preop("current_time_s", a.current_time_s)
-            .unit("s")
-            .between(TIME_MIN_S, TIME_MAX_S),
-        EntrySpec::rw_preop("supply_voltage_min_v", a.supply_voltage_min_v).unit("V"),
-        EntrySpec::rw_preop("supply_voltage_max_v", a.supply_voltage_max_v).unit("V"),
-        EntrySpec::rw_preop("supply_pressure_min_pa", a.supply_pressure_min_pa).unit("Pa"),
-        EntrySpec::rw_preop("supply_pressure_max_pa", a.supply_pressure_max_pa).unit("Pa"),
-        EntrySpec::rw_preop("supply_time_s", a.supply_time_s)
-            .unit("s")
-            .between(TIME_MIN_S, TIME_MAX_S),
-        EntrySpec::rw_preop("sensor_timeout_s", a.sensor_timeout_s)
-            .unit("s")
-            .between(TIME_MIN_S, TIME_MAX_S),
-        EntrySpec::rw_preop("heartbeat_timeout_s", a.heartbeat_timeout_s)
-            .unit("s")
-            .between(TIME_MIN_S, f64::INFINITY)
-            .doc("time without the actuator node's heartbeat before heartbeat_lost; inf = not watched"),
-    ];
+    let limits = declared_entries(&a.limits, a.command);
     let learned = vec![
         EntrySpec::ro("friction_compensation", 0.0f64)
             .unit(cu)
@@ -558,7 +502,10 @@ fn axis_objects(
             vec![
                 EntrySpec::rw("setpoint_position", a.initial_setpoint_m)
                     .unit("m")
-                    .between(a.position_min_m, a.position_max_m)
+                    .between(
+                        a.limits.position_min_m.unwrap_or(f64::NEG_INFINITY),
+                        a.limits.position_max_m.unwrap_or(f64::INFINITY),
+                    )
                     .pdo()
                     .doc("position setpoint, a setpoint frame overrides it"),
                 EntrySpec::rw_preop("setpoint_rate_max_m_per_s", a.setpoint_rate_max_m_per_s)

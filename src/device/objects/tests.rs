@@ -13,9 +13,12 @@ fn solenoid() -> AxisParameters {
         output_min: 0.0,
         output_max: 24.0,
         initial_setpoint_m: 0.005,
-        position_min_m: -0.0005,
-        position_max_m: 0.0255,
-        heartbeat_timeout_s: 0.5,
+        limits: crate::supervise::LimitsSection {
+            position_min_m: Some(-0.0005),
+            position_max_m: Some(0.0255),
+            heartbeat_timeout_s: Some(0.5),
+            ..AxisParameters::default().limits
+        },
         ..AxisParameters::default()
     }
 }
