@@ -467,3 +467,46 @@ fn the_algorithm_and_the_configuration_use_one_name_for_the_compensation_limit()
     let err = actuatord::control::AdaptiveFriction::new(c).expect_err("above the limit");
     assert!(err.to_string().contains("compensation_max"), "{err}");
 }
+
+#[test]
+fn the_sections_a_reload_changes_take_their_declared_defaults_and_ranges() {
+    use actuatord::control::{CorrectionSection, LearnedTableSection, PneumaticAdaptiveSection};
+    let t: LearnedTableSection =
+        toml::from_str("position_edges_m = [0.0, 0.01]\nsupply_voltage_edges_v = [20.0, 30.0]\n")
+            .expect("the rest has defaults");
+    assert_eq!(
+        (t.averaging_count, t.min_count, t.learn_interval_s),
+        (20, 3, 1.0)
+    );
+    assert_eq!(t.supply_pressure_edges_pa, None);
+    t.check().expect("in range");
+    for bad in [0.0, f64::INFINITY] {
+        let mut t = t.clone();
+        t.learn_interval_s = bad;
+        assert_eq!(t.check().expect_err("refused").name, "learn_interval_s");
+    }
+    assert!(
+        LearnedTableSection::defaults().is_none(),
+        "the edges have no default"
+    );
+    let err = toml::from_str::<LearnedTableSection>("supply_voltage_edges_v = [20.0, 30.0]\n")
+        .expect_err("the position edges are needed");
+    assert!(err.to_string().contains("position_edges_m"), "{err}");
+
+    let c: CorrectionSection = toml::from_str(
+        "pole_m = 0.03\nc0 = 1.0\nc1_per_m = 10.0\nreference_position_m = 0.01\nmin_gain_ratio = 0.2\n",
+    )
+    .expect("c2 has a default");
+    assert_eq!(c.c2_per_m2, 0.0);
+
+    let text = "forgetting = 0.975\nmin_duty = 0.05\nmin_position_step_m = 1e-5\nmin_updates = 3\n\
+                eigenvalue_valid = 0.5\ndrive_gain_min_m_per_s = 0.01\n";
+    let err = toml::from_str::<PneumaticAdaptiveSection>(text).expect_err("one key is missing");
+    assert!(err.to_string().contains("drive_gain_max_m_per_s"), "{err}");
+    let full = format!("{text}drive_gain_max_m_per_s = 1.0\n");
+    let p: PneumaticAdaptiveSection = toml::from_str(&full).expect("every key");
+    assert_eq!(p.min_updates, 3);
+    let err = toml::from_str::<PneumaticAdaptiveSection>(&format!("{full}forgeting = 0.9\n"))
+        .expect_err("misspelled");
+    assert!(err.to_string().contains("forgeting"), "{err}");
+}

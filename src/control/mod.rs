@@ -10,14 +10,17 @@ pub mod robust;
 mod adaptive_friction;
 mod adaptive_friction_section;
 mod adaptive_pneumatic;
+mod adaptive_pneumatic_section;
 mod direction_p;
 mod dither;
 mod dither_section;
 mod friction_compensation_section;
 mod integrator_design;
 mod learned_table;
+mod learned_table_section;
 mod linear;
 mod nonlinear_correction;
+mod nonlinear_correction_section;
 mod param_error;
 mod scheduling;
 mod state_feedback;
@@ -27,6 +30,7 @@ pub use adaptive_friction_section::AdaptiveFrictionSection;
 pub use adaptive_pneumatic::{
     GainSource, PneumaticAdaptive, PneumaticAdaptiveConfig, PneumaticStep,
 };
+pub use adaptive_pneumatic_section::PneumaticAdaptiveSection;
 pub use direction_p::{DirectionalP, DirectionalPConfig};
 pub use dither::{Dither, DitherConfig};
 pub use dither_section::DitherSection;
@@ -36,8 +40,10 @@ pub use learned_table::{
     LearnedCellState, LearnedTable, LearnedTableConfig, LearnedTableState, OperatingPoint,
     LEARNED_TABLE_VERSION,
 };
+pub use learned_table_section::LearnedTableSection;
 pub use linear::LinearController;
 pub use nonlinear_correction::{NonlinearCorrection, NonlinearCorrectionConfig};
+pub use nonlinear_correction_section::CorrectionSection;
 pub use param_error::ParamError;
 pub use scheduling::{BandStatus, GainSchedule, SchedulePoint, SupplyBand, MAX_SCHEDULED};
 pub use state_feedback::{StateFeedback, MAX_STATES};

@@ -281,39 +281,8 @@ pub struct ControllerConfig {
 /// lives.
 pub use crate::control::FrictionCompensationSection;
 
-/// `[axis.learned_table]`: the grid of operating points the adapted friction compensation is
-/// learned on. The sensor frames carry no load, so the grid has one load band; the supply is
-/// the one the axis measures (voltage for a voltage axis, pressure for a duty axis).
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct LearnedTableSection {
-    /// Band edges of the position (m), at least 2, increasing; outside: first or last band.
-    pub position_edges_m: Vec<f64>,
-    /// Band edges of the supply voltage (V); exactly one of this and `supply_pressure_edges_pa`.
-    pub supply_voltage_edges_v: Option<Vec<f64>>,
-    pub supply_pressure_edges_pa: Option<Vec<f64>>,
-    /// A cell averages over at most this many values (then forgets slowly).
-    #[serde(default = "default_averaging_count")]
-    pub averaging_count: u32,
-    /// A cell's values are used after this many.
-    #[serde(default = "default_min_count")]
-    pub min_count: u32,
-    /// How often the adapted values are folded into the present cell.
-    #[serde(default = "default_learn_interval_s")]
-    pub learn_interval_s: f64,
-}
-
-fn default_averaging_count() -> u32 {
-    20
-}
-
-fn default_min_count() -> u32 {
-    3
-}
-
-fn default_learn_interval_s() -> f64 {
-    1.0
-}
+/// `[axis.learned_table]`, declared where the table lives.
+pub use crate::control::LearnedTableSection;
 
 /// `[axis.adaptive_friction]`, declared with its ranges and access where the algorithm lives.
 pub use crate::control::AdaptiveFrictionSection;
@@ -321,21 +290,8 @@ pub use crate::control::AdaptiveFrictionSection;
 /// `[axis.dither]`, declared with its ranges where the dither lives.
 pub use crate::control::DitherSection;
 
-/// `[axis.correction]`: `U* = U g(Y_ref) / g(Y)`, `g(Y) = c0 + c1 (Y0 - Y) + c2 (Y0 - Y)²`.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct CorrectionSection {
-    /// `Y0`, the magnet's pole position, m.
-    pub pole_m: f64,
-    pub c0: f64,
-    pub c1_per_m: f64,
-    #[serde(default)]
-    pub c2_per_m2: f64,
-    /// Position where the correction is the identity (where the controller was tuned), m.
-    pub reference_position_m: f64,
-    /// Smallest `g(Y) / g(Y_ref)` used, limits the boost.
-    pub min_gain_ratio: f64,
-}
+/// `[axis.correction]`, declared where the correction lives.
+pub use crate::control::CorrectionSection;
 
 /// `[axis.schedule]`: a table of points, one column per key, linear between points and held
 /// beyond the ends. Exactly one of `supply_voltage_v` / `supply_pressure_pa` names the measured
@@ -386,25 +342,8 @@ impl ScheduleSection {
     }
 }
 
-/// `[axis.pneumatic_adaptive]`: DSFI estimation of `K_I1`, `K_I2` with supervision; the scheduled
-/// drive gains of `[axis.schedule]` are the start and the fallback.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct PneumaticAdaptiveSection {
-    /// DSFI forgetting factor λ (the paper: 0.975).
-    pub forgetting: f64,
-    /// Estimate only with |duty| at least this.
-    pub min_duty: f64,
-    /// ... and |ΔY| per sample at least this, m.
-    pub min_position_step_m: f64,
-    /// Updates with `z >= eigenvalue_valid` before an estimate is used (the paper: 3-4).
-    pub min_updates: u32,
-    /// Estimator eigenvalue `z = 1 - ψᵀγ` above which an update counts as converged, in (0, 1).
-    pub eigenvalue_valid: f64,
-    /// Plausible band of `K_I`, m/s; outside it the scheduled gains are used.
-    pub drive_gain_min_m_per_s: f64,
-    pub drive_gain_max_m_per_s: f64,
-}
+/// `[axis.pneumatic_adaptive]`, declared where the drive-gain adaptation lives.
+pub use crate::control::PneumaticAdaptiveSection;
 
 /// `[axis.observer]`, declared with its ranges and access where the observer lives.
 pub use crate::supervise::ObserverSection;
@@ -1027,12 +966,7 @@ impl AxisConfig {
                     ),
                 ));
             }
-            if !(t.learn_interval_s.is_finite() && t.learn_interval_s > 0.0) {
-                return Err((
-                    "learned_table.learn_interval_s".to_string(),
-                    format!("must be > 0, got {}", t.learn_interval_s),
-                ));
-            }
+            t.check().map_err(param("learned_table"))?;
             if let Some((c, _)) = self.learned_table_config(period_s) {
                 LearnedTable::new(c).map_err(|e| {
                     let key = match e.name {

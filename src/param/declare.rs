@@ -181,6 +181,22 @@ impl ParamValue for bool {
     }
 }
 
+impl ParamValue for Vec<f64> {
+    const KIND: Kind = Kind::Array;
+    fn each(&self, f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
+        self.iter().try_for_each(|v| f(*v))
+    }
+    fn scalar(&self) -> Option<f64> {
+        None
+    }
+    fn assign(&mut self, _value: f64) -> bool {
+        false
+    }
+    fn from_value(_value: f64) -> Option<Self> {
+        None
+    }
+}
+
 impl ParamValue for std::path::PathBuf {
     const KIND: Kind = Kind::Path;
     fn each(&self, _f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
