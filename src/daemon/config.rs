@@ -1135,9 +1135,7 @@ impl AxisConfig {
 }
 
 /// Persistence in cycles for a time, at least one cycle.
-pub fn cycles(time_s: f64, period_s: f64) -> u32 {
-    ((time_s / period_s).round() as u32).max(1)
-}
+pub use crate::param::cycles;
 
 #[cfg(test)]
 mod tests {

@@ -68,6 +68,11 @@ pub fn range(name: &'static str, lo: f64, hi: f64) -> Result<(f64, f64), ParamEr
     }
 }
 
+/// Persistence in cycles for a time, at least one cycle.
+pub fn cycles(time_s: f64, period_s: f64) -> u32 {
+    ((time_s / period_s).round() as u32).max(1)
+}
+
 mod declare;
 
 pub use declare::{

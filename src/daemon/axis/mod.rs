@@ -6,7 +6,7 @@
 //! Sans-I/O: the node feeds it decoded frames and takes the command back. Everything is built in
 //! [`Axis::new`]; the stages allocate nothing.
 
-use super::config::{cycles, AxisConfig, CommandKind, SetpointStep};
+use super::config::{AxisConfig, CommandKind, SetpointStep};
 mod estimation;
 mod friction;
 mod law;
@@ -21,9 +21,9 @@ use crate::device::{
 };
 use crate::recording::Stage;
 use crate::supervise::{
-    Band, DiagnosedFault, EstimatorHealth, FaultMachine, FaultMachineOutput, FaultState,
-    LimitSupervisor, Limits, PhysicalParameters, SupervisedFault, SupervisedFaults,
-    SupervisionInput, SupervisionLevel, SupervisionOutput, Symptom, PHYSICAL_PARAMS,
+    DiagnosedFault, EstimatorHealth, FaultMachine, FaultMachineOutput, FaultState, LimitSupervisor,
+    PhysicalParameters, SupervisedFault, SupervisedFaults, SupervisionInput, SupervisionLevel,
+    SupervisionOutput, Symptom, PHYSICAL_PARAMS,
 };
 use estimation::Estimation;
 use friction::FrictionCompensation;
@@ -257,42 +257,7 @@ impl Axis {
         let law = ControlLaw::new(cfg, period_s)?;
         let friction = FrictionCompensation::new(cfg, period_s).map_err(unvalidated)?;
         let l = &cfg.limits;
-        let band = |lo: Option<f64>, hi: Option<f64>, time_s: f64| {
-            if lo.is_none() && hi.is_none() {
-                return None;
-            }
-            Some(Band {
-                low: lo.unwrap_or(f64::NEG_INFINITY),
-                high: hi.unwrap_or(f64::INFINITY),
-                persistence_cycles: cycles(time_s, period_s),
-            })
-        };
-        let limits = Limits {
-            following_error: l.following_error_m.map(|e| Band {
-                low: -e,
-                high: e,
-                persistence_cycles: cycles(l.following_error_time_s, period_s),
-            }),
-            // End of range trips at once: a reading outside the travel is a broken sensor or a crash.
-            position: band(l.position_min_m, l.position_max_m, period_s),
-            current_a: l.current_max_a.map(|i| Band {
-                low: -i,
-                high: i,
-                persistence_cycles: cycles(l.current_time_s, period_s),
-            }),
-            supply_voltage_v: band(
-                l.supply_voltage_min_v,
-                l.supply_voltage_max_v,
-                l.supply_time_s,
-            ),
-            supply_pressure_pa: band(
-                l.supply_pressure_min_pa,
-                l.supply_pressure_max_pa,
-                l.supply_time_s,
-            ),
-            sensor_timeout_cycles: cycles(l.sensor_timeout_s, period_s),
-            heartbeat_timeout_s: l.heartbeat_timeout_s,
-        };
+        let limits = l.limits(period_s);
         let schedule = SupplySchedule::new(cfg, period_s)?;
         let observer = Observer::new(cfg, period_s)?;
         let estimation = Estimation::new(cfg, period_s)?;
