@@ -366,7 +366,7 @@ fn the_estimation_rules_are_the_declared_ranges() {
     let err = Config::from_toml(&bad, &path).expect_err("an infinite nominal value");
     assert!(
         err.to_string()
-            .contains("parameter_estimation.nominal must be finite, got inf"),
+            .contains("parameter_estimation.nominal must be a finite number, got inf"),
         "{err}"
     );
 }
@@ -509,4 +509,48 @@ fn the_sections_a_reload_changes_take_their_declared_defaults_and_ranges() {
     let err = toml::from_str::<PneumaticAdaptiveSection>(&format!("{full}forgeting = 0.9\n"))
         .expect_err("misspelled");
     assert!(err.to_string().contains("forgeting"), "{err}");
+}
+
+#[test]
+fn the_schedule_factors_follow_their_declared_ranges() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("config/solenoid.toml");
+    let config = shipped();
+    let s = config.axis[0]
+        .schedule
+        .clone()
+        .expect("the shipped solenoid is scheduled");
+    s.check().expect("in range");
+    let text = std::fs::read_to_string(&path).expect("shipped config");
+    let line = |key: &str| {
+        text.lines()
+            .find(|l| l.starts_with(&format!("{key} =")))
+            .map(str::to_string)
+            .expect("the shipped schedule has the key")
+    };
+    let points = s.gain_factor.as_ref().expect("gain_factor").len();
+    let column = |v: f64| {
+        let mut c = vec![1.0; points];
+        c[0] = v;
+        format!("{c:?}")
+    };
+    for (key, value, rule) in [
+        ("gain_factor", 0.0, "must be a finite number > 0, got 0"),
+        (
+            "command_limit_factor",
+            1.5,
+            "must be a number in (0, 1], got 1.5",
+        ),
+        (
+            "command_limit_factor",
+            0.0,
+            "must be a number in (0, 1], got 0",
+        ),
+    ] {
+        let bad = text.replacen(&line(key), &format!("{key} = {}", column(value)), 1);
+        let err = Config::from_toml(&bad, &path).expect_err("out of range");
+        assert!(
+            err.to_string().ends_with(&format!("schedule.{key} {rule}")),
+            "{err}"
+        );
+    }
 }

@@ -23,6 +23,7 @@ mod nonlinear_correction;
 mod nonlinear_correction_section;
 mod param_error;
 mod scheduling;
+mod scheduling_section;
 mod state_feedback;
 
 pub use adaptive_friction::{AdaptiveFriction, AdaptiveFrictionConfig, AdaptiveFrictionOutput};
@@ -46,4 +47,5 @@ pub use nonlinear_correction::{NonlinearCorrection, NonlinearCorrectionConfig};
 pub use nonlinear_correction_section::CorrectionSection;
 pub use param_error::ParamError;
 pub use scheduling::{BandStatus, GainSchedule, SchedulePoint, SupplyBand, MAX_SCHEDULED};
+pub use scheduling_section::{ScheduleSection, ScheduleVariable};
 pub use state_feedback::{StateFeedback, MAX_STATES};

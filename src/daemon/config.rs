@@ -293,54 +293,8 @@ pub use crate::control::DitherSection;
 /// `[axis.correction]`, declared where the correction lives.
 pub use crate::control::CorrectionSection;
 
-/// `[axis.schedule]`: a table of points, one column per key, linear between points and held
-/// beyond the ends. Exactly one of `supply_voltage_v` / `supply_pressure_pa` names the measured
-/// variable; `gain_factor` multiplies the controller's gains, or, on a duty axis,
-/// `drive_gain_down_m_per_s` / `drive_gain_up_m_per_s` (`K_I1`, `K_I2`) give the direction P
-/// gains by the quadratic-cost design with `effort_weight_m2`.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ScheduleSection {
-    pub supply_voltage_v: Option<Vec<f64>>,
-    pub supply_pressure_pa: Option<Vec<f64>>,
-    pub gain_factor: Option<Vec<f64>>,
-    /// With `gain_factor`: the share of `output_min`/`output_max` the supply allows, in (0, 1]
-    /// (a PWM stage at a surge would put more than the drive's rated voltage on it); 1 when absent.
-    pub command_limit_factor: Option<Vec<f64>>,
-    pub drive_gain_down_m_per_s: Option<Vec<f64>>,
-    pub drive_gain_up_m_per_s: Option<Vec<f64>>,
-    /// `r` of the cost `Σ e² + r U²`, m² per duty².
-    pub effort_weight_m2: Option<f64>,
-    /// With drive gains: the supply pressure the gains are tuned at; a drive stronger than there
-    /// keeps the nominal gains (see `PneumaticAdaptiveConfig::nominal_supply_pa`).
-    pub nominal_supply_pa: Option<f64>,
-    /// Errors within this give no command on a direction-P axis, m.
-    #[serde(default)]
-    pub deadband_m: f64,
-}
-
-/// What the schedule reads.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ScheduleVariable {
-    SupplyVoltage,
-    SupplyPressure,
-}
-
-impl ScheduleSection {
-    /// The measured variable and its column (validated: exactly one is given).
-    pub fn variable(&self) -> (ScheduleVariable, &[f64]) {
-        match (&self.supply_voltage_v, &self.supply_pressure_pa) {
-            (Some(v), _) => (ScheduleVariable::SupplyVoltage, v),
-            (None, Some(p)) => (ScheduleVariable::SupplyPressure, p),
-            (None, None) => (ScheduleVariable::SupplyVoltage, &[]),
-        }
-    }
-
-    /// True when the schedule gives drive gains (direction P on a duty axis).
-    pub fn schedules_drive_gains(&self) -> bool {
-        self.drive_gain_down_m_per_s.is_some() || self.drive_gain_up_m_per_s.is_some()
-    }
-}
+/// `[axis.schedule]`, declared where the scheduling lives.
+pub use crate::control::{ScheduleSection, ScheduleVariable};
 
 /// `[axis.pneumatic_adaptive]`, declared where the drive-gain adaptation lives.
 pub use crate::control::PneumaticAdaptiveSection;
@@ -1024,30 +978,11 @@ impl AxisConfig {
                     "goes with gain_factor, not with drive gains".to_string(),
                 ));
             }
-            if let Some(points) = self.gain_factor_points()? {
-                for p in &points {
-                    if !(p.params[0].is_finite() && p.params[0] > 0.0) {
-                        return Err((
-                            "schedule.gain_factor".to_string(),
-                            format!("must be > 0, got {}", p.params[0]),
-                        ));
-                    }
-                    if let Some(&l) = p.params.get(1) {
-                        if !(l.is_finite() && l > 0.0 && l <= 1.0) {
-                            return Err((
-                                "schedule.command_limit_factor".to_string(),
-                                format!("must lie in (0, 1], got {l}"),
-                            ));
-                        }
-                    }
-                }
+            let points = self.gain_factor_points()?;
+            // The gain and limit factors, the deadband: the ranges declared with the section.
+            s.check().map_err(param("schedule"))?;
+            if let Some(points) = points {
                 GainSchedule::new(&points).map_err(param("schedule"))?;
-            }
-            if !(s.deadband_m.is_finite() && s.deadband_m >= 0.0) {
-                return Err((
-                    "schedule.deadband_m".to_string(),
-                    format!("must be >= 0, got {}", s.deadband_m),
-                ));
             }
         }
         if self.pneumatic_adaptive.is_some()

@@ -56,6 +56,32 @@ pub struct ParamSpec {
 }
 
 impl ParamSpec {
+    /// What the declared range asks for, in words: "a number in [a, b]", "a finite number > 0",
+    /// "a whole number >= 1"...
+    fn range_text(&self) -> String {
+        let whole = if self.kind == Kind::Count {
+            "whole "
+        } else {
+            ""
+        };
+        let finite = if self.max == f64::MAX { "finite " } else { "" };
+        let what = format!("a {finite}{whole}number");
+        let high = self.max < f64::MAX;
+        if self.min == f64::MIN_POSITIVE && !high {
+            format!("{what} > 0")
+        } else if self.min == f64::MIN_POSITIVE {
+            format!("{what} in (0, {}]", self.max)
+        } else if self.min > f64::MIN && high {
+            format!("{what} in [{}, {}]", self.min, self.max)
+        } else if self.min > f64::MIN {
+            format!("{what} >= {}", self.min)
+        } else if high {
+            format!("{what} <= {}", self.max)
+        } else {
+            what
+        }
+    }
+
     /// `value` is within the declared range (each element of an array).
     pub fn check(&self, value: f64) -> Result<(), ParamError> {
         let integral = self.kind != Kind::Count || value.fract() == 0.0;
@@ -65,24 +91,10 @@ impl ParamSpec {
                 format!("must be finite, got {value} (leave the key out instead)"),
             ));
         }
-        if !value.is_finite() && self.min == f64::MIN && self.max == f64::MAX {
-            return Err(ParamError::new(
-                self.name,
-                format!("must be finite, got {value}"),
-            ));
-        }
         if value.is_nan() || value < self.min || value > self.max || !integral {
-            let what = if self.kind == Kind::Count {
-                "a whole number"
-            } else {
-                "a number"
-            };
             return Err(ParamError::new(
                 self.name,
-                format!(
-                    "must be {what} in [{}, {}], got {value}",
-                    self.min, self.max
-                ),
+                format!("must be {}, got {value}", self.range_text()),
             ));
         }
         Ok(())
