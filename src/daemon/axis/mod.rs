@@ -12,6 +12,7 @@ mod friction;
 mod law;
 mod observer;
 mod schedule;
+mod supervision;
 
 use super::learned::AxisLearned;
 use crate::canopen::NmtState;
@@ -21,8 +22,7 @@ use crate::device::{
 };
 use crate::recording::Stage;
 use crate::supervise::{
-    DiagnosedFault, EstimatorHealth, FaultMachine, FaultMachineOutput, FaultState, LimitSupervisor,
-    PhysicalParameters, SupervisedFault, SupervisedFaults, SupervisionInput, SupervisionLevel,
+    EstimatorHealth, FaultMachineOutput, PhysicalParameters, SupervisedFault, SupervisionInput,
     SupervisionOutput, Symptom, PHYSICAL_PARAMS,
 };
 use estimation::Estimation;
@@ -30,6 +30,7 @@ use friction::FrictionCompensation;
 pub use law::ControlLaw;
 use observer::Observer;
 use schedule::SupplySchedule;
+use supervision::{Findings, Supervision};
 
 /// What the axis has learned or runs with this cycle (the tuned-parameter frames).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -183,27 +184,6 @@ impl AxisStep {
     }
 }
 
-/// The supervised fault of a diagnosis; `None` for a fault the fault machine has no entry for
-/// (its symptoms would still be on the bus).
-fn supervised(fault: DiagnosedFault) -> Option<SupervisedFault> {
-    match fault {
-        DiagnosedFault::SpringPretension => Some(SupervisedFault::SpringPretension),
-        DiagnosedFault::SpringStiffness => Some(SupervisedFault::SpringStiffness),
-        DiagnosedFault::FrictionIncrease => Some(SupervisedFault::FrictionIncrease),
-        DiagnosedFault::CurrentGain => Some(SupervisedFault::CurrentGain),
-        DiagnosedFault::SensorOffset => Some(SupervisedFault::SensorOffset),
-    }
-}
-
-fn state_of(level: SupervisionLevel) -> FaultState {
-    match level {
-        SupervisionLevel::Ok => FaultState::Ok,
-        SupervisionLevel::Warning => FaultState::Warning,
-        SupervisionLevel::MaintenanceRequested => FaultState::MaintenanceRequested,
-        SupervisionLevel::FailSafe => FaultState::Fault,
-    }
-}
-
 /// An algorithm that cannot be built from a configuration that skipped `Config::validate`,
 /// which reports the same problem with its file and key.
 fn unvalidated(e: ParamError) -> ControllerError {
@@ -226,9 +206,8 @@ pub struct Axis {
     /// The disturbance observer and its last output.
     observer: Observer,
     estimation: Option<Estimation>,
-    machine: FaultMachine,
-    model: ModelSupervision,
-    supervisor: LimitSupervisor,
+    /// Limit checks and the fault machine with what the other parts found.
+    supervision: Supervision,
     travel: (f64, f64),
     setpoint: f64,
     reference: f64,
@@ -257,11 +236,10 @@ impl Axis {
         let law = ControlLaw::new(cfg, period_s)?;
         let friction = FrictionCompensation::new(cfg, period_s).map_err(unvalidated)?;
         let l = &cfg.limits;
-        let limits = l.limits(period_s);
         let schedule = SupplySchedule::new(cfg, period_s)?;
         let observer = Observer::new(cfg, period_s)?;
         let estimation = Estimation::new(cfg, period_s)?;
-        let machine = FaultMachine::new(&cfg.fault_machine_config()).map_err(unvalidated)?;
+        let supervision = Supervision::new(cfg, period_s)?;
         Ok(Self {
             name: cfg.name.clone(),
             actuator_node_id: cfg.actuator_node_id,
@@ -273,12 +251,7 @@ impl Axis {
             supply_schedule: schedule,
             observer,
             estimation,
-            machine,
-            model: ModelSupervision {
-                confidence: 1.0,
-                ..Default::default()
-            },
-            supervisor: LimitSupervisor::new(limits),
+            supervision,
             travel: (
                 l.position_min_m.unwrap_or(f64::NEG_INFINITY),
                 l.position_max_m.unwrap_or(f64::INFINITY),
@@ -373,11 +346,11 @@ impl Axis {
         self.node_state = old.node_state;
         self.drive_fault = old.drive_fault;
         self.node_was_operational = old.node_was_operational;
-        self.supervisor.keep_latched(old.supervisor.latched());
+        self.supervision.keep_latched(&old.supervision);
         // What the axis learned is kept: a new parameter is no reason to forget the friction.
         self.restore_learned(&old.learned());
         self.friction.continue_from(&old.friction);
-        if old.supervisor.latched().is_empty() {
+        if old.supervision.limits_latched().is_empty() {
             self.last_command = old.last_command;
             self.law.preset(old.last_command);
         }
@@ -418,11 +391,7 @@ impl Axis {
 
     /// Clear latched faults; the controller restarts bumplessly from the safe command.
     pub fn reset_faults(&mut self) {
-        self.supervisor.reset();
-        self.machine.reset();
-        self.model.diagnosed_fault = None;
-        self.model.confidence = 1.0;
-        self.model.machine = FaultMachineOutput::default();
+        self.supervision.reset();
         // The reference model restarts from where the axis rests; what was learned stays.
         self.friction.reset_model();
         self.law.preset(self.safe_command);
@@ -495,7 +464,7 @@ impl Axis {
             e.step(self.sensor.position, self.last_command);
         }
         self.law
-            .estimate(self.sensor.position, self.model.machine.fail_safe);
+            .estimate(self.sensor.position, self.supervision.fail_safe());
     }
 
     /// Stage "observer": the disturbance observer with this cycle's position and the command
@@ -512,7 +481,7 @@ impl Axis {
         let node_operational = (!self.node_was_operational
             || self.node_state == Some(NmtState::Operational))
             && self.drive_fault.is_none();
-        let mut limits = self.supervisor.step(&SupervisionInput {
+        let input = SupervisionInput {
             setpoint: self.reference,
             position: self.sensor.position,
             current_a: self.sensor.current_a,
@@ -522,68 +491,24 @@ impl Axis {
             sensor_missing_cycles: self.missing_cycles,
             heartbeat_age_s: now_s - self.last_heartbeat_s,
             node_operational,
-        });
-        let mut present = SupervisedFaults::default();
-        if !limits.latched.is_empty() {
-            present.insert(SupervisedFault::LimitViolation);
-        }
-        if self.observer.output().friction_rise {
-            present.insert(SupervisedFault::ObserverFriction);
-        }
-        if let Some(f) = self
-            .estimation
-            .as_ref()
-            .and_then(Estimation::present)
-            .and_then(supervised)
-        {
-            present.insert(f);
-        }
+        };
         let p = self.law.pneumatic_step();
-        if p.health_down == EstimatorHealth::Implausible
-            || p.health_up == EstimatorHealth::Implausible
-        {
-            present.insert(SupervisedFault::EstimatorImplausible);
-        }
-        let machine = self.machine.step(present);
-        if let Some(f) = machine.raised.iter().next() {
-            self.model.diagnosed_fault = Some(f);
-            self.model.confidence = match (f, &self.estimation) {
-                (
-                    SupervisedFault::SpringPretension
-                    | SupervisedFault::SpringStiffness
-                    | SupervisedFault::FrictionIncrease
-                    | SupervisedFault::CurrentGain
-                    | SupervisedFault::SensorOffset,
-                    Some(e),
-                ) => e.confidence(),
-                _ => 1.0,
-            };
-        }
-        self.model.machine = machine;
-        if let Some(e) = &self.estimation {
-            self.model.symptoms = e.symptoms();
-            self.model.nominal_learned = e.nominal().is_some();
-            self.model.estimate = e.last();
-        }
-        // The published state: the fault machine's decision, at least "warning" while a limit
-        // is exceeded but not yet latched.
-        let mut state = state_of(machine.level);
-        // Outside the scheduled band of the supply the loop goes on, and says so.
-        let off_band = self.supply_schedule.band() != BandStatus::Inside;
-        if (off_band || !limits.pending.is_empty())
-            && state.severity() < FaultState::Warning.severity()
-        {
-            state = FaultState::Warning;
-        }
-        limits.state = state;
-        limits
+        let findings = Findings {
+            observer_friction: self.observer.output().friction_rise,
+            estimation: self.estimation.as_ref(),
+            estimator_implausible: p.health_down == EstimatorHealth::Implausible
+                || p.health_up == EstimatorHealth::Implausible,
+            // Outside the scheduled band of the supply the loop goes on, and says so.
+            off_band: self.supply_schedule.band() != BandStatus::Inside,
+        };
+        self.supervision.step(&input, &findings)
     }
 
     /// Stage "control": the command, or the safe command while the fault machine says fail-safe.
     pub fn control(&mut self, supervision: SupervisionOutput) -> AxisStep {
         let e = self.error;
         let y = self.sensor.position;
-        if self.model.machine.fail_safe {
+        if self.supervision.fail_safe() {
             self.last_command = self.safe_command;
             self.friction.idle();
         } else if self.fresh {
@@ -639,7 +564,7 @@ impl Axis {
             supply_pressure_pa: self.supply_pressure_pa,
             sensor_fresh: self.fresh,
             supervision,
-            model: self.model,
+            model: *self.supervision.model(),
             tuned,
             supply_band: self.supply_schedule.band(),
         }
