@@ -19,7 +19,7 @@ pub enum Access {
 pub enum Kind {
     /// A real number (REAL64).
     Real,
-    /// A count (UNSIGNED32).
+    /// A count (UNSIGNED32, or UNSIGNED8: see [`ParamSpec::bits`]).
     Count,
     /// Several numbers (not in the dictionary).
     Array,
