@@ -122,6 +122,16 @@ pub enum Command {
 }
 
 impl Command {
+    /// The `command_kind` entry's code.
+    pub fn code(self) -> u8 {
+        match self {
+            Command::Voltage => 0,
+            Command::Duty => 1,
+            Command::Torque => 2,
+            Command::Velocity => 3,
+        }
+    }
+
     /// The unit of a command value.
     pub fn unit(self) -> &'static str {
         match self {
@@ -453,8 +463,8 @@ fn axis_objects(
             vec![
                 EntrySpec::ro("axis_name", name),
                 EntrySpec::ro("actuator_node_id", a.actuator_node_id),
-                EntrySpec::ro("command_kind", u8::from(a.command == Command::Duty))
-                    .doc("0 voltage (V), 1 signed valve duty (-1..1)"),
+                EntrySpec::ro("command_kind", a.command.code())
+                    .doc("0 voltage (V), 1 signed valve duty (-1..1), 2 torque (N m), 3 velocity (m/s)"),
                 EntrySpec::rw_preop("safe_command", a.safe_command)
                     .unit(cu)
                     .between(-c, c)

@@ -164,14 +164,14 @@ fn command_entries_carry_the_unit_of_the_axis_command() {
         model_deadband_m: 0.0,
         settled_band_m: 1e-3,
     };
-    // command, coefficient q_j, force gain
+    // command, its code, coefficient q_j, force gain
     let expected = [
-        (Command::Voltage, "V", "V/m", "N/V"),
-        (Command::Duty, "", "1/m", "N"),
-        (Command::Torque, "N m", "N m/m", "N/(N m)"),
-        (Command::Velocity, "m/s", "1/s", "N s/m"),
+        (Command::Voltage, 0, "V", "V/m", "N/V"),
+        (Command::Duty, 1, "", "1/m", "N"),
+        (Command::Torque, 2, "N m", "N m/m", "N/(N m)"),
+        (Command::Velocity, 3, "m/s", "1/s", "N s/m"),
     ];
-    for (command, unit, per_m, force_gain) in expected {
+    for (command, code, unit, per_m, force_gain) in expected {
         // Within a duty's bounds, so that every command kind takes them.
         let mut axis = AxisParameters {
             command,
@@ -196,6 +196,8 @@ fn command_entries_carry_the_unit_of_the_axis_command() {
             assert_eq!(unit_of(name), unit, "{command:?} {name}");
         }
         assert_eq!(unit_of("q0_per_m"), per_m, "{command:?}");
+        let h = od.handle_by_name(Some(0), "command_kind").expect("entry");
+        assert_eq!(od.value(h), Value::Unsigned8(code), "{command:?}");
         assert_eq!(
             unit_of("force_gain_n_per_command"),
             force_gain,
