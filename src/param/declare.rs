@@ -502,3 +502,23 @@ macro_rules! __declared_or {
         $given
     };
 }
+
+/// The configuration key of field `$field` of section type `$section`, as text, checked by the
+/// compiler: a parameter renamed in its declaration (or misspelled here) is a build error, so
+/// code that names a key (an editor writing a configuration, an error, a rule between keys)
+/// cannot drift from the declaration. The key is the field's name: a declared section and the
+/// configuration's structs take their TOML keys from their fields without renaming.
+///
+/// ```ignore
+/// let key: &str = param_key!(ObserverSection, mass_kg); // "mass_kg"
+/// ```
+#[macro_export]
+macro_rules! param_key {
+    ($section:ty, $field:ident) => {{
+        #[allow(dead_code)]
+        fn declared(section: &$section) {
+            let _ = &section.$field;
+        }
+        stringify!($field)
+    }};
+}

@@ -41,19 +41,21 @@
 //! only when the nearest row is unique and at most `max_distance` entries away.
 
 use super::fault_table::FaultSymptomTable;
+use super::parameter_estimation_section::NominalParameters;
 use crate::ident::{Dsfi, DsfiConfig, RecursiveEstimator, StateVariableFilter};
 use crate::param::ParamError;
 
 /// Number of physical parameters.
 pub const PHYSICAL_PARAMS: usize = 6;
-/// Names of the physical parameters, in order.
+/// Names of the physical parameters, in order: the keys of `[axis.parameter_estimation]`'s
+/// `nominal` table.
 pub const PHYSICAL_NAMES: [&str; PHYSICAL_PARAMS] = [
-    "current_time_constant_s",
-    "damping_ratio",
-    "natural_frequency_rad_per_s",
-    "static_gain_m_per_v",
-    "coulomb_friction_n",
-    "pretension_n",
+    crate::param_key!(NominalParameters, current_time_constant_s),
+    crate::param_key!(NominalParameters, damping_ratio),
+    crate::param_key!(NominalParameters, natural_frequency_rad_per_s),
+    crate::param_key!(NominalParameters, static_gain_m_per_v),
+    crate::param_key!(NominalParameters, coulomb_friction_n),
+    crate::param_key!(NominalParameters, pretension_n),
 ];
 
 /// A symptom: the parameter compared with its nominal value.

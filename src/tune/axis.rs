@@ -13,8 +13,31 @@ use super::plant::{
     corners, design_parameters, drive_damping, flexible, flexible_with_contact, AxisModel,
     Direction,
 };
-use crate::daemon::config::{AxisConfig, CommandKind, Config, FrictionCompensationSection};
+use crate::daemon::config::{
+    AdaptiveFrictionSection, AxisConfig, CommandKind, Config, ControllerConfig,
+    FrictionCompensationSection, ObserverSection, ParameterEstimationSection, ScheduleSection,
+};
+use crate::param_key;
 use crate::physics::Family;
+
+// The sections tune writes, named by the configuration's fields.
+const CONTROLLER: &str = param_key!(AxisConfig, controller);
+const FRICTION: &str = param_key!(AxisConfig, friction_compensation);
+const ADAPTIVE: &str = param_key!(AxisConfig, adaptive_friction);
+const OBSERVER: &str = param_key!(AxisConfig, observer);
+const ESTIMATION: &str = param_key!(AxisConfig, parameter_estimation);
+const SCHEDULE: &str = param_key!(AxisConfig, schedule);
+
+/// `axis.<section>.<first>, <second>, ...`: keys of one section as the report names them; the
+/// section alone without keys.
+fn keys(section: &str, names: &[&str]) -> String {
+    match names.split_first() {
+        None => format!("axis.{section}"),
+        Some((first, rest)) => rest.iter().fold(format!("axis.{section}.{first}"), |s, n| {
+            format!("{s}, {n}")
+        }),
+    }
+}
 
 /// The design goal: a dominant closed-loop pair of natural frequency `bandwidth` and damping
 /// `damping`, the other poles `fast` times faster.
@@ -560,10 +583,28 @@ pub fn tune(
         goal.fast,
         period_s * 1e3
     );
-    ed.set_list("controller", "q_per_m", &controller.q, 10, &design_text);
-    ed.set_list("controller", "p", &controller.p, 10, &design_text);
+    ed.set_list(
+        CONTROLLER,
+        param_key!(ControllerConfig, q_per_m),
+        &controller.q,
+        10,
+        &design_text,
+    );
+    ed.set_list(
+        CONTROLLER,
+        param_key!(ControllerConfig, p),
+        &controller.p,
+        10,
+        &design_text,
+    );
     ed.keep(
-        "axis.controller.output_min, output_max",
+        keys(
+            CONTROLLER,
+            &[
+                param_key!(ControllerConfig, output_min),
+                param_key!(ControllerConfig, output_max),
+            ],
+        ),
         "the drive's limits, not the model's",
     );
 
@@ -607,21 +648,24 @@ pub fn tune(
     };
     if let Some(fc) = &added {
         ed.set_f64(
-            "friction_compensation",
-            "alpha",
+            FRICTION,
+            param_key!(FrictionCompensationSection, alpha),
             fc.alpha,
             "the safety factor of the project's configurations (the axis had no friction \
              compensation; the fit determined its friction)",
         );
         match model.backlash_gap {
             Some(gap) => ed.set_f64(
-                "friction_compensation",
-                "deadband_m",
+                FRICTION,
+                param_key!(FrictionCompensationSection, deadband_m),
                 0.5 * gap,
                 format!("half backlash.gap_rad of {origin}"),
             ),
             None => ed.keep(
-                "axis.friction_compensation.deadband_m",
+                keys(
+                    FRICTION,
+                    &[param_key!(FrictionCompensationSection, deadband_m)],
+                ),
                 "0: the model has no play; raise it to the sensor's noise",
             ),
         }
@@ -629,8 +673,16 @@ pub fn tune(
     match (added.as_ref().or(a.friction_compensation.as_ref()), coulomb) {
         (Some(fc), Some(c)) => {
             for (key, name, v) in [
-                ("coulomb_pos_n", pos_n, c[0]),
-                ("coulomb_neg_n", neg_n, c[1]),
+                (
+                    param_key!(FrictionCompensationSection, coulomb_pos_n),
+                    pos_n,
+                    c[0],
+                ),
+                (
+                    param_key!(FrictionCompensationSection, coulomb_neg_n),
+                    neg_n,
+                    c[1],
+                ),
             ] {
                 let from = if split {
                     format!(
@@ -642,20 +694,20 @@ pub fn tune(
                 } else {
                     format!("{name} of {origin}{}", scaled(family, scale))
                 };
-                ed.set_f64("friction_compensation", key, v * scale, from);
+                ed.set_f64(FRICTION, key, v * scale, from);
             }
             match family {
                 Family::Solenoid => ed.set_f64(
-                    "friction_compensation",
-                    "force_gain_n_per_command",
+                    FRICTION,
+                    param_key!(FrictionCompensationSection, force_gain_n_per_command),
                     k_mean,
                     format!(
                         "solenoid.current_gain_a_per_v x solenoid.force_constant_n_per_a of {origin}"
                     ),
                 ),
                 Family::MotorGear => ed.set_f64(
-                    "friction_compensation",
-                    "force_gain_n_per_command",
+                    FRICTION,
+                    param_key!(FrictionCompensationSection, force_gain_n_per_command),
                     k_mean,
                     format!(
                         "motor_gear.ratio x motor_gear.torque_constant_nm_per_a / \
@@ -663,7 +715,7 @@ pub fn tune(
                     ),
                 ),
                 _ => ed.keep(
-                    "axis.friction_compensation.force_gain_n_per_command",
+                    keys(FRICTION, &[param_key!(FrictionCompensationSection, force_gain_n_per_command)]),
                     "the lab's linear_axis balance takes the command as the force: the drive's \
                      newtons per volt are not in the data (the levels above are written with it)",
                 ),
@@ -675,15 +727,21 @@ pub fn tune(
             friction_start = Some(start);
             if added.is_none() {
                 ed.keep(
-                    "axis.friction_compensation.alpha, deadband_m",
+                    keys(
+                        FRICTION,
+                        &[
+                            param_key!(FrictionCompensationSection, alpha),
+                            param_key!(FrictionCompensationSection, deadband_m),
+                        ],
+                    ),
                     "the share left to the integral part and the sensor's noise: not the model's",
                 );
             }
             if a.adaptive_friction.is_some() {
                 if let Some(tm) = step.time_constant_s() {
                     ed.set_f64(
-                        "adaptive_friction",
-                        "model_time_constant_s",
+                        ADAPTIVE,
+                        param_key!(AdaptiveFrictionSection, model_time_constant_s),
                         tm,
                         "time to 63 % of the designed loop's predicted step (the reference model \
                          is the loop without friction)",
@@ -691,13 +749,13 @@ pub fn tune(
                 }
                 let most = 3.0 * start[0].max(start[1]) / fc.alpha.max(f64::MIN_POSITIVE);
                 ed.set_f64(
-                    "adaptive_friction",
-                    "compensation_max",
+                    ADAPTIVE,
+                    param_key!(AdaptiveFrictionSection, compensation_max),
                     most,
                     "three times the identified friction in command units",
                 );
                 ed.keep(
-                    "axis.adaptive_friction (start values)",
+                    format!("{} (start values)", keys(ADAPTIVE, &[])),
                     format!(
                         "the adaptation starts from the compensation above: {:.4} / {:.4} per \
                          direction (alpha F_C / K)",
@@ -705,17 +763,24 @@ pub fn tune(
                     ),
                 );
                 ed.keep(
-                    "axis.adaptive_friction.adaptation_gain_per_m_s, deadbands, settled_band_m",
+                    keys(
+                        ADAPTIVE,
+                        &[
+                            param_key!(AdaptiveFrictionSection, adaptation_gain_per_m_s),
+                            "deadbands",
+                            param_key!(AdaptiveFrictionSection, settled_band_m),
+                        ],
+                    ),
                     "speed of learning and the sensor's noise: not the model's",
                 );
             }
         }
         (Some(_), None) => ed.keep(
-            "axis.friction_compensation",
+            keys(FRICTION, &[]),
             format!("{origin} has no coulomb friction: the levels are kept"),
         ),
         (None, Some(_)) => ed.keep(
-            "axis.friction_compensation",
+            keys(FRICTION, &[]),
             "not configured: tune does not add sections",
         ),
         (None, None) => {}
@@ -735,56 +800,59 @@ pub fn tune(
         let ti = model.lag_s.unwrap_or(0.0);
         if a.observer.is_some() {
             ed.set_f64(
-                "observer",
-                "mass_kg",
+                OBSERVER,
+                param_key!(ObserverSection, mass_kg),
                 model.mass,
                 declared("solenoid.mass_kg"),
             );
             ed.set_f64(
-                "observer",
-                "damping_n_s_per_m",
+                OBSERVER,
+                param_key!(ObserverSection, damping_n_s_per_m),
                 0.5 * (model.damping[0] + model.damping[1]),
                 format!("mean of viscous.damping_pos/neg_n_s_per_m of {origin}"),
             );
             ed.set_f64(
-                "observer",
-                "spring_n_per_m",
+                OBSERVER,
+                param_key!(ObserverSection, spring_n_per_m),
                 model.stiffness,
                 declared("spring.stiffness_n_per_m"),
             );
             ed.set_f64(
-                "observer",
-                "force_constant_n_per_a",
+                OBSERVER,
+                param_key!(ObserverSection, force_constant_n_per_a),
                 kmag,
                 declared("solenoid.force_constant_n_per_a"),
             );
             ed.set_f64(
-                "observer",
-                "current_gain_a_per_v",
+                OBSERVER,
+                param_key!(ObserverSection, current_gain_a_per_v),
                 ki,
                 declared("solenoid.current_gain_a_per_v"),
             );
             ed.set_f64(
-                "observer",
-                "current_time_constant_s",
+                OBSERVER,
+                param_key!(ObserverSection, current_time_constant_s),
                 ti,
                 declared("solenoid.current_time_constant_s"),
             );
             ed.keep(
-                "axis.observer.poles, bands, warm-up",
+                format!(
+                    "{}, bands, warm-up",
+                    keys(OBSERVER, &[param_key!(ObserverSection, poles)])
+                ),
                 "the observer's own design and the noise it learns its bands from",
             );
         }
         if let Some(pe) = &a.parameter_estimation {
             ed.set_f64(
-                "parameter_estimation",
-                "mass_kg",
+                ESTIMATION,
+                param_key!(ParameterEstimationSection, mass_kg),
                 model.mass,
                 declared("solenoid.mass_kg"),
             );
             ed.set_f64(
-                "parameter_estimation",
-                "current_time_constant_s",
+                ESTIMATION,
+                param_key!(ParameterEstimationSection, current_time_constant_s),
                 ti,
                 declared("solenoid.current_time_constant_s"),
             );
@@ -838,22 +906,12 @@ pub fn tune(
             }
             if undetermined.is_empty() && p.iter().all(|v| v.is_finite() && *v > 0.0) {
                 let mut t = toml_edit::InlineTable::new();
-                for (k, v) in [
-                    "current_time_constant_s",
-                    "damping_ratio",
-                    "natural_frequency_rad_per_s",
-                    "static_gain_m_per_v",
-                    "coulomb_friction_n",
-                    "pretension_n",
-                ]
-                .iter()
-                .zip(p)
-                {
+                for (k, v) in crate::supervise::PHYSICAL_NAMES.iter().zip(p) {
                     t.insert(*k, round_sig(v, 6).into());
                 }
                 ed.set(
-                    "parameter_estimation",
-                    "nominal",
+                    ESTIMATION,
+                    param_key!(ParameterEstimationSection, nominal),
                     toml_edit::Value::InlineTable(t),
                     format!("p = [T_I, D, w0, K_P, F_C, F_0] of {origin}"),
                 );
@@ -864,15 +922,18 @@ pub fn tune(
                     .map(|(f, s)| f.max(s))
                     .collect();
                 ed.set_list(
-                    "parameter_estimation",
-                    "relative_floor",
+                    ESTIMATION,
+                    param_key!(ParameterEstimationSection, relative_floor),
                     &floor,
                     3,
                     "the configured floor, widened to the fit's 95 % spread of each p",
                 );
             } else {
                 ed.keep(
-                    "axis.parameter_estimation.nominal",
+                    keys(
+                        ESTIMATION,
+                        &[param_key!(ParameterEstimationSection, nominal)],
+                    ),
                     format!(
                         "the fit did not determine {} (no interval): the nominal p is learned from \
                          the first windows in operation as configured; the fit's p would be \
@@ -891,7 +952,10 @@ pub fn tune(
                 );
             }
             ed.keep(
-                "axis.parameter_estimation.fault_table",
+                keys(
+                    ESTIMATION,
+                    &[param_key!(ParameterEstimationSection, fault_table)],
+                ),
                 "the fault-symptom table: `actuator bench fault-table` derives it for the \
                  reference solenoid (config/solenoid.toml with config/plants/solenoid.toml) only; \
                  it is not regenerated for this plant",
@@ -900,7 +964,7 @@ pub fn tune(
     } else {
         if a.observer.is_some() || a.parameter_estimation.is_some() {
             ed.keep(
-                "axis.observer, axis.parameter_estimation",
+                format!("{}, {}", keys(OBSERVER, &[]), keys(ESTIMATION, &[])),
                 "models of the solenoid drive: kept",
             );
         }
@@ -917,15 +981,15 @@ pub fn tune(
             (Some(points), Some(kappa), Some(nominal), true) => {
                 let factors: Vec<f64> = points.iter().map(|u| (nominal / u).powf(kappa)).collect();
                 ed.set_list(
-                    "schedule",
-                    "gain_factor",
+                    SCHEDULE,
+                    param_key!(ScheduleSection, gain_factor),
                     &factors,
                     5,
                     format!("(U_nom / U)^kappa with supply_gain.exponent of {origin}"),
                 );
             }
             _ => ed.keep(
-                "axis.schedule",
+                keys(SCHEDULE, &[]),
                 format!(
                     "{origin} does not determine the supply's law (no fitted supply_gain: the \
                      record's supply did not vary, or the model lacks the effect)"
@@ -934,7 +998,14 @@ pub fn tune(
         }
     }
     ed.keep(
-        "axis.limits, axis.setpoints, [bus], [node], [cycle]",
+        format!(
+            "{}, {}, [{}], [{}], [{}]",
+            keys(param_key!(AxisConfig, limits), &[]),
+            keys(param_key!(AxisConfig, setpoints), &[]),
+            param_key!(Config, bus),
+            param_key!(Config, node),
+            param_key!(Config, cycle),
+        ),
         "the installation's, not the model's",
     );
 
@@ -1180,16 +1251,20 @@ pub fn regenerate_fault_table(
     let mut doc: toml_edit::DocumentMut = tuning.text.parse()?;
     let mut ed = Editor::new(std::mem::take(&mut doc), 0);
     ed.set(
-        "parameter_estimation",
-        "fault_table",
+        ESTIMATION,
+        param_key!(ParameterEstimationSection, fault_table),
         toml_edit::Value::from(table_key),
         "derived for the fitted plant with the tuned configuration",
     );
     tuning.text = ed.doc.to_string();
     tuning.changes.extend(ed.changes);
-    tuning
-        .kept
-        .retain(|k| k.key != "axis.parameter_estimation.fault_table");
+    tuning.kept.retain(|k| {
+        k.key
+            != keys(
+                ESTIMATION,
+                &[param_key!(ParameterEstimationSection, fault_table)],
+            )
+    });
     Config::from_toml(&tuning.text, config_path).map_err(|e| {
         anyhow::anyhow!("the tuned configuration does not pass the daemon's validation: {e}")
     })?;
