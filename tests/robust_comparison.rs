@@ -11,7 +11,7 @@ use actuatord::design::{
 
 fn rows() -> Vec<ComparisonRow> {
     let d = design_robust_with(
-        Path::new("config/plants/motor_gear_bao.toml"),
+        Path::new("config/plants/motor_gear.toml"),
         DesignOptions::bao_2016(),
     )
     .expect("design");
@@ -135,11 +135,11 @@ fn peak_voltage_20hz_10deg(plant: &str) -> (f64, f64) {
 }
 
 #[test]
-fn the_bao_plant_can_track_20_hz_at_10_degrees_and_the_daemons_cannot() {
+fn the_rebuilt_plant_can_track_20_hz_at_10_degrees_and_the_heavier_reading_cannot() {
     // docs/papers.md: the rebuilt plant needs about 19 V of its 24 V bridge; the heavier reading
-    // of Table 1 (the daemon's reference plant) needs far more than its bridge gives.
-    let (bao, limit) = peak_voltage_20hz_10deg("config/plants/motor_gear_bao.toml");
+    // of Table 1 (the project's plant before) needs far more than its bridge gives.
+    let (bao, limit) = peak_voltage_20hz_10deg("config/plants/motor_gear.toml");
     assert!(bao < 0.85 * limit, "{bao} V of {limit} V");
-    let (heavy, limit) = peak_voltage_20hz_10deg("config/plants/motor_gear.toml");
+    let (heavy, limit) = peak_voltage_20hz_10deg("tests/data/motor_gear_heavy_reading.toml");
     assert!(heavy > 3.0 * limit, "{heavy} V of {limit} V");
 }

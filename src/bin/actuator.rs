@@ -216,7 +216,7 @@ enum BenchCommand {
     /// comparison) on a simulated motor_gear plant: sinusoids at 2 and 20 Hz, two amplitudes,
     /// bandwidth, beside the paper's figures.
     Robust {
-        #[arg(long, default_value = "config/plants/motor_gear_bao.toml")]
+        #[arg(long, default_value = "config/plants/motor_gear.toml")]
         plant: PathBuf,
         /// Print JSON (a list of rows) instead of a table.
         #[arg(long)]

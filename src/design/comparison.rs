@@ -36,7 +36,7 @@ pub struct PidFcTuning {
 
 /// Crossover of the PID + friction compensation loop (rad/s). The paper gives no PID gains;
 /// this one figure is calibrated so that the loop's 2 Hz, 10° phase lag lands in the band of the
-/// paper's 5.67° on `config/plants/motor_gear_bao.toml` (6.9°); its 20 Hz amplitude and 1°
+/// paper's 5.67° on `config/plants/motor_gear.toml` (6.9°); its 20 Hz amplitude and 1°
 /// bandwidth are then predictions held against the paper's other two figures.
 pub const PID_CROSSOVER_RAD_S: f64 = 80.0;
 

@@ -1,8 +1,8 @@
 //! `actuator design robust`: from a `motor_gear` plant file to `controller.toml`.
 //!
-//! The weights: [`DesignOptions::default`] for `config/plants/motor_gear.toml` (`design robust`,
-//! the daemon's reference), [`DesignOptions::bao_2016`] for the paper's comparison on
-//! `config/plants/motor_gear_bao.toml` (`bench robust`); each documents its values and reasons.
+//! The weights, both for `config/plants/motor_gear.toml`: [`DesignOptions::default`] for
+//! `design robust` (a reduced sixth-order controller for the daemon), [`DesignOptions::bao_2016`]
+//! for the paper's comparison (`bench robust`); each documents its values and reasons.
 
 use std::fmt;
 use std::path::Path;
