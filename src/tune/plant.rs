@@ -341,14 +341,28 @@ mod tests {
         let (a, b) = (r.response(w), flex.response(w));
         assert!((a - b).norm() > 0.5 * a.norm(), "{a} vs {b}");
         // A quarter of the contact's stiffness halves the contact mode's frequency (the shaft's
-        // mode, near 11000 rad/s, stays).
+        // mode, near 11000 rad/s, and the armature's real pole near 2600 rad/s stay). The light
+        // fork lever's contact is well damped (damping ratio about 0.75, and overdamped at a
+        // quarter of the stiffness), so the mode is read with a tenth of the contact damping:
+        // what is checked is how the stiffness share enters the model.
+        let mut light = spec.clone();
+        let c = light
+            .get("motor_gear.contact_damping_nm_s_per_rad")
+            .expect("contact damping");
+        light
+            .set("motor_gear.contact_damping_nm_s_per_rad", 0.1 * c)
+            .expect("contact damping");
         let contact_mode = |share: f64| -> f64 {
-            let p = flexible_with_contact(&spec, share)
+            let p = flexible_with_contact(&light, share)
                 .expect("model")
                 .expect("motor_gear");
-            assert_eq!(share == 1.0, p == flex);
+            assert_eq!(
+                share == 1.0,
+                p == flexible(&light).expect("model").expect("motor_gear")
+            );
             p.a.complex_eigenvalues()
                 .iter()
+                .filter(|e| e.im.abs() > 1e-6)
                 .map(|e| e.norm())
                 .filter(|w| (20.0..5000.0).contains(w))
                 .fold(0.0, f64::max)
