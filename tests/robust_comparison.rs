@@ -11,7 +11,7 @@ use actuatord::design::{
 
 fn rows() -> Vec<ComparisonRow> {
     let d = design_robust_with(
-        Path::new("config/plants/motor_gear_bao.toml"),
+        Path::new("config/plants/motor_gear.toml"),
         DesignOptions::bao_2016(),
     )
     .expect("design");
@@ -71,6 +71,37 @@ fn comparison_reaches_the_papers_figures() {
     let json = serde_json::to_string(&rows).expect("serialise");
     assert!(json.contains("\"paper_pid_fc\":5.67"));
     assert!(json.contains("\"verdict_robust\":"));
+    // The paper's bands as numbers beside today's keys: each row with a figure carries the band
+    // its verdict was judged against, each row without one nulls.
+    let parsed: Vec<serde_json::Value> = serde_json::from_str(&json).expect("parse");
+    for (r, v) in rows.iter().zip(&parsed) {
+        for (side, ours, paper, verdict) in [
+            ("pid_fc", r.pid_fc, r.paper_pid_fc, &r.verdict_pid_fc),
+            ("robust", r.robust, r.paper_robust, &r.verdict_robust),
+        ] {
+            let min = v[format!("paper_min_{side}")].as_f64();
+            let max = v[format!("paper_max_{side}")].as_f64();
+            match paper {
+                Some(p) => {
+                    let (min, max) = (min.expect("paper_min"), max.expect("paper_max"));
+                    assert!(min <= p && p <= max, "{r}");
+                    assert_eq!(verdict == "inside", ours >= min && ours <= max, "{r}");
+                }
+                None => {
+                    assert!(v[format!("paper_min_{side}")].is_null(), "{r}");
+                    assert!(v[format!("paper_max_{side}")].is_null(), "{r}");
+                    assert_eq!(verdict, "no figure");
+                }
+            }
+        }
+    }
+    // The 2 Hz lag's bands: ±50 % of 5.67° and of 1.76°.
+    let v = &parsed[rows.iter().position(|r| std::ptr::eq(r, lag)).expect("row")];
+    let num = |k: &str| v[k].as_f64().expect(k);
+    assert!((num("paper_min_pid_fc") - 2.835).abs() < 1e-9);
+    assert!((num("paper_max_pid_fc") - 8.505).abs() < 1e-9);
+    assert!((num("paper_min_robust") - 0.88).abs() < 1e-9);
+    assert!((num("paper_max_robust") - 2.64).abs() < 1e-9);
 }
 
 /// Peak armature voltage of the 10°, 20 Hz sine by inverse dynamics of the rigid drive, written
@@ -104,11 +135,11 @@ fn peak_voltage_20hz_10deg(plant: &str) -> (f64, f64) {
 }
 
 #[test]
-fn the_bao_plant_can_track_20_hz_at_10_degrees_and_the_daemons_cannot() {
+fn the_rebuilt_plant_can_track_20_hz_at_10_degrees_and_the_heavier_reading_cannot() {
     // docs/papers.md: the rebuilt plant needs about 19 V of its 24 V bridge; the heavier reading
-    // of Table 1 (the daemon's reference plant) needs far more than its bridge gives.
-    let (bao, limit) = peak_voltage_20hz_10deg("config/plants/motor_gear_bao.toml");
+    // of Table 1 (the project's plant before) needs far more than its bridge gives.
+    let (bao, limit) = peak_voltage_20hz_10deg("config/plants/motor_gear.toml");
     assert!(bao < 0.85 * limit, "{bao} V of {limit} V");
-    let (heavy, limit) = peak_voltage_20hz_10deg("config/plants/motor_gear.toml");
+    let (heavy, limit) = peak_voltage_20hz_10deg("tests/data/motor_gear_heavy_reading.toml");
     assert!(heavy > 3.0 * limit, "{heavy} V of {limit} V");
 }

@@ -200,8 +200,9 @@ enum SdoOp {
 
 #[derive(Subcommand, Debug)]
 enum DesignCommand {
-    /// H-infinity mixed-sensitivity controller for a motor_gear plant (Bao et al. 2016),
-    /// reduced and discretised for the cycle, written as a state-space controller file.
+    /// H-infinity mixed-sensitivity controller for a motor_gear plant (Bao et al. 2016, the
+    /// weights of the paper's comparison), discretised for the cycle, written as a state-space
+    /// controller file.
     Robust {
         #[arg(long, default_value = "config/plants/motor_gear.toml")]
         plant: PathBuf,
@@ -216,7 +217,7 @@ enum BenchCommand {
     /// comparison) on a simulated motor_gear plant: sinusoids at 2 and 20 Hz, two amplitudes,
     /// bandwidth, beside the paper's figures.
     Robust {
-        #[arg(long, default_value = "config/plants/motor_gear_bao.toml")]
+        #[arg(long, default_value = "config/plants/motor_gear.toml")]
         plant: PathBuf,
         /// Print JSON (a list of rows) instead of a table.
         #[arg(long)]

@@ -36,7 +36,7 @@ pub struct PidFcTuning {
 
 /// Crossover of the PID + friction compensation loop (rad/s). The paper gives no PID gains;
 /// this one figure is calibrated so that the loop's 2 Hz, 10° phase lag lands in the band of the
-/// paper's 5.67° on `config/plants/motor_gear_bao.toml` (6.9°); its 20 Hz amplitude and 1°
+/// paper's 5.67° on `config/plants/motor_gear.toml` (6.9°); its 20 Hz amplitude and 1°
 /// bandwidth are then predictions held against the paper's other two figures.
 pub const PID_CROSSOVER_RAD_S: f64 = 80.0;
 
@@ -133,14 +133,50 @@ pub struct ComparisonRow {
     /// The paper's figure where the text gives one.
     pub paper_pid_fc: Option<f64>,
     pub paper_robust: Option<f64>,
-    /// Each controller against the paper's figure: `inside` its band, `better`, `worse`, or
+    /// The band each verdict is judged against, in `unit` ([`paper_band`] of the paper's
+    /// figure; null where the paper gives none).
+    pub paper_min_pid_fc: Option<f64>,
+    pub paper_max_pid_fc: Option<f64>,
+    pub paper_min_robust: Option<f64>,
+    pub paper_max_robust: Option<f64>,
+    /// Each controller against the paper's band: `inside`, `better`, `worse`, `failed`, or
     /// `no figure` ([`verdict`]).
     pub verdict_pid_fc: String,
     pub verdict_robust: String,
 }
 
-/// The band around one of the paper's figures: ±50 % of it, or ±10 points for an amplitude
-/// error the paper gives as zero ("keeps the amplitude").
+impl ComparisonRow {
+    /// A row with the paper's bands and both verdicts derived from the paper's figures, so that
+    /// the numbers printed as the band are the ones the verdicts use.
+    pub fn new(
+        test: String,
+        metric: &str,
+        unit: &str,
+        (pid_fc, robust): (f64, f64),
+        (paper_pid_fc, paper_robust): (Option<f64>, Option<f64>),
+    ) -> Self {
+        let band_pid = paper_pid_fc.map(paper_band);
+        let band_robust = paper_robust.map(paper_band);
+        Self {
+            test,
+            metric: metric.into(),
+            unit: unit.into(),
+            pid_fc,
+            robust,
+            paper_pid_fc,
+            paper_robust,
+            paper_min_pid_fc: band_pid.map(|b| b.0),
+            paper_max_pid_fc: band_pid.map(|b| b.1),
+            paper_min_robust: band_robust.map(|b| b.0),
+            paper_max_robust: band_robust.map(|b| b.1),
+            verdict_pid_fc: verdict(metric, pid_fc, band_pid),
+            verdict_robust: verdict(metric, robust, band_robust),
+        }
+    }
+}
+
+/// The band around one of the paper's figures, `(min, max)`: ±50 % of it, or ±10 points for an
+/// amplitude error the paper gives as zero ("keeps the amplitude").
 pub fn paper_band(paper: f64) -> (f64, f64) {
     if paper.abs() < 1e-9 {
         (-10.0, 10.0)
@@ -149,14 +185,14 @@ pub fn paper_band(paper: f64) -> (f64, f64) {
     }
 }
 
-/// `inside` the band of [`paper_band`], else `better` or `worse` by the metric's sense (a phase
-/// lag is better smaller, a bandwidth larger, an amplitude error nearer zero: an overshoot beyond
-/// the band is worse, not better), `no figure` without one.
-pub fn verdict(metric: &str, ours: f64, paper: Option<f64>) -> String {
-    let Some(p) = paper else {
+/// `inside` the band `(min, max)` (from [`paper_band`]), else `better` or `worse` by the
+/// metric's sense (a phase lag is better smaller, a bandwidth larger, an amplitude error nearer
+/// zero: an overshoot beyond the band is worse, not better), `failed` for a figure that could not
+/// be measured, `no figure` without a band.
+pub fn verdict(metric: &str, ours: f64, band: Option<(f64, f64)>) -> String {
+    let Some((lo, hi)) = band else {
         return "no figure".into();
     };
-    let (lo, hi) = paper_band(p);
     let v = if !ours.is_finite() {
         "failed"
     } else if ours >= lo && ours <= hi {
@@ -418,52 +454,36 @@ pub fn run_comparison(
             Job::Sine(hz, deg) => {
                 let test = format!("sine {hz} Hz, {deg}°");
                 let paper = paper_figures(hz, deg);
-                rows.push(ComparisonRow {
-                    test: test.clone(),
-                    metric: "amplitude error".into(),
-                    unit: "%".into(),
-                    pid_fc: (p0 - 1.0) * 100.0,
-                    robust: (r0 - 1.0) * 100.0,
-                    paper_pid_fc: paper.0,
-                    paper_robust: paper.1,
-                    verdict_pid_fc: String::new(),
-                    verdict_robust: String::new(),
-                });
-                rows.push(ComparisonRow {
+                rows.push(ComparisonRow::new(
+                    test.clone(),
+                    "amplitude error",
+                    "%",
+                    ((p0 - 1.0) * 100.0, (r0 - 1.0) * 100.0),
+                    (paper.0, paper.1),
+                ));
+                rows.push(ComparisonRow::new(
                     test,
-                    metric: "phase lag".into(),
-                    unit: "deg".into(),
-                    pid_fc: lag_deg(p1),
-                    robust: lag_deg(r1),
-                    paper_pid_fc: paper.2,
-                    paper_robust: paper.3,
-                    verdict_pid_fc: String::new(),
-                    verdict_robust: String::new(),
-                });
+                    "phase lag",
+                    "deg",
+                    (lag_deg(p1), lag_deg(r1)),
+                    (paper.2, paper.3),
+                ));
             }
             Job::Band(deg) => {
-                let (pp, pr) = if (deg - 1.0).abs() < 1e-9 {
+                let paper = if (deg - 1.0).abs() < 1e-9 {
                     (Some(16.6), Some(61.0))
                 } else {
                     (None, None)
                 };
-                rows.push(ComparisonRow {
-                    test: format!("sweep {deg}°"),
-                    metric: "-3 dB bandwidth".into(),
-                    unit: "rad/s".into(),
-                    pid_fc: p0,
-                    robust: r0,
-                    paper_pid_fc: pp,
-                    paper_robust: pr,
-                    verdict_pid_fc: String::new(),
-                    verdict_robust: String::new(),
-                });
+                rows.push(ComparisonRow::new(
+                    format!("sweep {deg}°"),
+                    "-3 dB bandwidth",
+                    "rad/s",
+                    (p0, r0),
+                    paper,
+                ));
             }
         }
-    }
-    for r in &mut rows {
-        r.verdict_pid_fc = verdict(&r.metric, r.pid_fc, r.paper_pid_fc);
-        r.verdict_robust = verdict(&r.metric, r.robust, r.paper_robust);
     }
     Ok(rows)
 }
@@ -499,22 +519,75 @@ mod tests {
 
     #[test]
     fn verdicts_follow_the_metric_and_the_papers_band() {
+        let v = |metric: &str, ours: f64, paper: Option<f64>| {
+            verdict(metric, ours, paper.map(paper_band))
+        };
         // PID+FC at 2 Hz: paper 5.67°, band 2.8-8.5°.
-        assert_eq!(verdict("phase lag", 5.0, Some(5.67)), "inside");
-        assert_eq!(verdict("phase lag", 31.7, Some(5.67)), "worse");
-        assert_eq!(verdict("phase lag", 1.0, Some(5.67)), "better");
+        assert_eq!(v("phase lag", 5.0, Some(5.67)), "inside");
+        assert_eq!(v("phase lag", 31.7, Some(5.67)), "worse");
+        assert_eq!(v("phase lag", 1.0, Some(5.67)), "better");
         // Robust at 20 Hz: the paper keeps the amplitude, band -10..10 %.
-        assert_eq!(verdict("amplitude error", -78.0, Some(0.0)), "worse");
-        assert_eq!(verdict("amplitude error", -5.0, Some(0.0)), "inside");
+        assert_eq!(v("amplitude error", -78.0, Some(0.0)), "worse");
+        assert_eq!(v("amplitude error", -5.0, Some(0.0)), "inside");
         // PID+FC at 20 Hz loses about 50 %: band -75..-25 %.
-        assert_eq!(verdict("amplitude error", -10.0, Some(-50.0)), "better");
+        assert_eq!(v("amplitude error", -10.0, Some(-50.0)), "better");
         // An overshoot is not a better amplitude.
-        assert_eq!(verdict("amplitude error", 40.0, Some(0.0)), "worse");
-        assert_eq!(verdict("amplitude error", 30.0, Some(-50.0)), "worse");
-        assert_eq!(verdict("amplitude error", -80.0, Some(-50.0)), "worse");
-        assert_eq!(verdict("-3 dB bandwidth", 13.6, Some(61.0)), "worse");
-        assert_eq!(verdict("-3 dB bandwidth", 100.0, Some(61.0)), "better");
-        assert_eq!(verdict("-3 dB bandwidth", 13.6, None), "no figure");
+        assert_eq!(v("amplitude error", 40.0, Some(0.0)), "worse");
+        assert_eq!(v("amplitude error", 30.0, Some(-50.0)), "worse");
+        assert_eq!(v("amplitude error", -80.0, Some(-50.0)), "worse");
+        assert_eq!(v("-3 dB bandwidth", 13.6, Some(61.0)), "worse");
+        assert_eq!(v("-3 dB bandwidth", 100.0, Some(61.0)), "better");
+        assert_eq!(v("-3 dB bandwidth", 13.6, None), "no figure");
+        assert_eq!(v("-3 dB bandwidth", f64::NAN, Some(61.0)), "failed");
+    }
+
+    #[test]
+    fn a_rows_band_is_the_one_its_verdict_uses() {
+        let r = ComparisonRow::new(
+            "sine 2 Hz, 10°".into(),
+            "phase lag",
+            "deg",
+            (8.6, 2.6),
+            (Some(5.67), Some(1.76)),
+        );
+        let near = |x: Option<f64>, y: f64| (x.expect("band") - y).abs() < 1e-12;
+        assert!(
+            near(r.paper_min_pid_fc, 2.835) && near(r.paper_max_pid_fc, 8.505),
+            "{r:?}"
+        );
+        assert!(
+            near(r.paper_min_robust, 0.88) && near(r.paper_max_robust, 2.64),
+            "{r:?}"
+        );
+        // Just past the PID+FC band's upper edge, just inside the robust band's.
+        assert_eq!(r.verdict_pid_fc, "worse");
+        assert_eq!(r.verdict_robust, "inside");
+        // Every row: inside exactly when the figure lies in the printed band.
+        for ours in [-80.0, -75.0, -50.0, -25.0, -24.9, -10.0, 0.0, 10.0, 10.1] {
+            let r = ComparisonRow::new(
+                "sine 20 Hz, 10°".into(),
+                "amplitude error",
+                "%",
+                (ours, ours),
+                (Some(-50.0), Some(0.0)),
+            );
+            for (min, max, v) in [
+                (r.paper_min_pid_fc, r.paper_max_pid_fc, &r.verdict_pid_fc),
+                (r.paper_min_robust, r.paper_max_robust, &r.verdict_robust),
+            ] {
+                let (min, max) = (min.expect("band"), max.expect("band"));
+                assert_eq!(v == "inside", ours >= min && ours <= max, "{ours} {r}");
+            }
+        }
+        let none = ComparisonRow::new(
+            "sweep 10°".into(),
+            "-3 dB bandwidth",
+            "rad/s",
+            (81.0, 241.0),
+            (None, None),
+        );
+        assert_eq!((none.paper_min_robust, none.paper_max_pid_fc), (None, None));
+        assert_eq!(none.verdict_robust, "no figure");
     }
 
     use super::*;

@@ -325,9 +325,9 @@ mod tests {
         assert!(spec.get("varying_ratio.max_angle_rad").is_none());
         let rigid = AxisModel::with_values(Family::MotorGear, &|n| spec.get(n)).expect("model");
         // J_l + J_g + h² J_m, b + h² K_T K_e / R_a, h K_T / R_a, T_lmax / θ_full.
-        assert!((rigid.mass - (0.01 + 0.02 + 900.0 * 1e-5)).abs() < 1e-12);
-        assert!((rigid.damping[0] - (0.05 + 900.0 * 0.03 * 0.03 / 1.55)).abs() < 1e-12);
-        assert!((rigid.gain[0] - 30.0 * 0.03 / 1.55).abs() < 1e-12);
+        assert!((rigid.mass - (5e-4 + 3e-4 + 400.0 * 1e-6)).abs() < 1e-12);
+        assert!((rigid.damping[0] - (0.05 + 400.0 * 0.03 * 0.03 / 1.55)).abs() < 1e-12);
+        assert!((rigid.gain[0] - 20.0 * 0.03 / 1.55).abs() < 1e-12);
         assert!((rigid.stiffness - 1.0).abs() < 1e-12);
         let flex = flexible(&spec).expect("model").expect("motor_gear");
         let r = rigid.linear(Direction::Positive);
@@ -335,25 +335,40 @@ mod tests {
             let (a, b) = (r.response(w), flex.response(w));
             assert!((a - b).norm() < 0.05 * b.norm(), "{w} rad/s: {a} vs {b}");
         }
-        // At the contact mode (about 260 rad/s here) the two part.
-        let w = 260.0;
+        // At the contact mode (about 1300 rad/s here: sqrt(K_g (1/J_l + 1/(J_g + h² J_m)))) the
+        // two part.
+        let w = 1300.0;
         let (a, b) = (r.response(w), flex.response(w));
         assert!((a - b).norm() > 0.5 * a.norm(), "{a} vs {b}");
         // A quarter of the contact's stiffness halves the contact mode's frequency (the shaft's
-        // mode, near 2700 rad/s, stays).
+        // mode, near 11000 rad/s, and the armature's real pole near 2600 rad/s stay). The light
+        // fork lever's contact is well damped (damping ratio about 0.75, and overdamped at a
+        // quarter of the stiffness), so the mode is read with a tenth of the contact damping:
+        // what is checked is how the stiffness share enters the model.
+        let mut light = spec.clone();
+        let c = light
+            .get("motor_gear.contact_damping_nm_s_per_rad")
+            .expect("contact damping");
+        light
+            .set("motor_gear.contact_damping_nm_s_per_rad", 0.1 * c)
+            .expect("contact damping");
         let contact_mode = |share: f64| -> f64 {
-            let p = flexible_with_contact(&spec, share)
+            let p = flexible_with_contact(&light, share)
                 .expect("model")
                 .expect("motor_gear");
-            assert_eq!(share == 1.0, p == flex);
+            assert_eq!(
+                share == 1.0,
+                p == flexible(&light).expect("model").expect("motor_gear")
+            );
             p.a.complex_eigenvalues()
                 .iter()
+                .filter(|e| e.im.abs() > 1e-6)
                 .map(|e| e.norm())
-                .filter(|w| (20.0..1000.0).contains(w))
+                .filter(|w| (20.0..5000.0).contains(w))
                 .fold(0.0, f64::max)
         };
         let (full, quarter) = (contact_mode(1.0), contact_mode(0.25));
-        assert!((full - 260.0).abs() < 30.0, "{full}");
+        assert!((full - 1300.0).abs() < 150.0, "{full}");
         assert!((quarter / full - 0.5).abs() < 0.1, "{quarter} vs {full}");
         // No flexible model for another family.
         let solenoid = crate::physics::load_spec(std::path::Path::new(concat!(

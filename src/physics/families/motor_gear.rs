@@ -53,7 +53,7 @@ pub const PARAMS: &[ParamDef] = &[
     ),
     p("back_emf_v_s_per_rad", "V·s/rad", false, 0.03, "K_e"),
     p("torque_constant_nm_per_a", "N·m/A", true, 0.03, "K_T"),
-    p("motor_inertia_kg_m2", "kg·m²", true, 1e-5, "J_m"),
+    p("motor_inertia_kg_m2", "kg·m²", true, 1e-6, "J_m"),
     p(
         "torsion_stiffness_nm_per_rad",
         "N·m/rad",
@@ -72,14 +72,14 @@ pub const PARAMS: &[ParamDef] = &[
         "ratio",
         "1",
         true,
-        30.0,
+        20.0,
         "h_0, motor angle per gear output angle",
     ),
     p(
         "gear_inertia_kg_m2",
         "kg·m²",
         true,
-        0.02,
+        0.0003,
         "J_g, gear, screw and nut at the output",
     ),
     p(
@@ -96,7 +96,13 @@ pub const PARAMS: &[ParamDef] = &[
         0.5,
         "C_g",
     ),
-    p("load_inertia_kg_m2", "kg·m²", true, 0.01, "J_l, fork lever"),
+    p(
+        "load_inertia_kg_m2",
+        "kg·m²",
+        true,
+        0.0005,
+        "J_l, fork lever",
+    ),
     p("supply_voltage_v", "V", true, 24.0, "H-bridge supply"),
     ParamDef::any(
         "angle_min_rad",
