@@ -1220,6 +1220,18 @@ pub fn fit_spec(
     d: &Prepared,
     index: Option<&[usize]>,
 ) -> anyhow::Result<(PlantSpec, IdFit)> {
+    fit_spec_with(spec, raw, d, index, false)
+}
+
+/// [`fit_spec`]; `coarse` searches every other grid point and does not refine (a profile over
+/// another parameter calls it at each of its points).
+pub fn fit_spec_with(
+    spec: &PlantSpec,
+    raw: &Dataset,
+    d: &Prepared,
+    index: Option<&[usize]>,
+    coarse: bool,
+) -> anyhow::Result<(PlantSpec, IdFit)> {
     let mut spec = spec.clone();
     let mut extra = 0;
     let is_free =
@@ -1265,7 +1277,8 @@ pub fn fit_spec(
         };
         let mut best: Option<(f64, f64)> = None;
         let mut at = 0;
-        for (i, &g) in grid.iter().enumerate() {
+        let step = if coarse { 2 } else { 1 };
+        for (i, &g) in grid.iter().enumerate().step_by(step) {
             if let Some(rss) = score(g)? {
                 if best.is_none_or(|(r, _)| rss < r) {
                     best = Some((rss, g));
@@ -1274,7 +1287,7 @@ pub fn fit_spec(
             }
         }
         // Refine between the neighbours of the best grid point.
-        if let Some((_, g0)) = best {
+        if let Some((_, g0)) = best.filter(|_| !coarse) {
             let lo = if at > 0 { grid[at - 1] } else { g0 };
             let hi = grid.get(at + 1).copied().unwrap_or(g0);
             for i in 1..REFINE {
