@@ -11,7 +11,7 @@ use serde::Serialize;
 
 use super::data::Dataset;
 use super::model::Model;
-use super::regress::{balance, fit_spec, fit_spec_with, representable, IdFit};
+use super::regress::{balance, fit_spec, representable, IdFit};
 use super::signals::Prepared;
 use crate::ident::f_test_nested;
 use crate::physics::{EffectKind, PlantSpec};
@@ -386,12 +386,7 @@ pub fn diagnose(
     // candidate would not rather have another lag).
     let drive: Vec<(String, Vec<f64>)> = super::regress::drive_grid(&first_spec, d, data)
         .into_iter()
-        .filter(|(name, _)| {
-            first_spec
-                .params()
-                .iter()
-                .any(|(n, p)| n == name && p.free)
-        })
+        .filter(|(name, _)| first_spec.params().iter().any(|(n, p)| n == name && p.free))
         .map(|(name, grid)| (name, grid.iter().step_by(2).copied().collect()))
         .collect();
     // The base is fitted again from its own fit, the start of every candidate: where a fixed
@@ -536,21 +531,22 @@ fn candidate(
     let mut spec = base_spec.clone();
     spec.add_effect(kind)?;
     let (mut fitted, mut fit) = fit_spec(&spec, data, d, None)?;
-    // A lag in the drive and a missing damping (or a hysteresis, a dead time) trade against
-    // each other, so the base's lag may be far from the candidate's: the lag is profiled over a
-    // coarse grid, with the candidate's nonlinear parameters searched on every other point of
-    // their grids at each lag, and the candidate searched in full at the best lag.
+    // A lag in the drive and a missing damping trade against each other, so the base's lag may
+    // be far from the candidate's: the lag is profiled over a coarse grid with the candidate's
+    // nonlinear parameters kept as found and the linear ones refitted (one regression per point;
+    // the exact profile for a candidate linear in its parameters), and the candidate is searched
+    // again at the best lag.
     for (name, grid) in drive {
-        let mut profile = Vec::with_capacity(grid.len());
+        let mut best: Option<(f64, f64)> = None;
         for &g in grid {
-            let mut s = spec.clone();
+            let mut s = fitted.clone();
             s.set(name, g)?;
-            profile.push((fit_spec_with(&s, data, d, None, true)?.1.rss, g));
+            let rss = balance(&s, data, d)?.fit(None, 0, d.n_eff_per_sample).rss;
+            if rss < fit.rss && best.is_none_or(|(r, _)| rss < r) {
+                best = Some((rss, g));
+            }
         }
-        // The coarse search of the candidate's own parameters may rank two neighbouring lags
-        // the other way round: the two best are searched in full.
-        profile.sort_by(|a, b| a.0.total_cmp(&b.0));
-        for &(_, g) in profile.iter().take(2) {
+        if let Some((_, g)) = best {
             let mut s = spec.clone();
             s.set(name, g)?;
             let (f_spec, f) = fit_spec(&s, data, d, None)?;
