@@ -730,7 +730,7 @@ fn pneumatic_tune_designs_from_the_closed_loop_fit_and_schedules_a_determined_mo
         err.contains("pneumatic.gain_down_m_per_s")
             && err.contains("[5.0000e-3, 2.5000e-2]")
             && err.contains("too wide to design from")
-            && err.contains("not identifiable"),
+            && err.contains("does not determine the drive gain"),
         "{err}"
     );
     assert!(!tuned.exists());
