@@ -137,7 +137,8 @@ fn lab(c: &mut Criterion) {
     g.bench_function("whole_catalogue", |b| {
         b.iter(|| black_box(diagnose(&m, &d, &prep, &opts, &|_, _, _| {}).expect("diagnoses")))
     });
-    // Without the current the coil's time constant is identified with every candidate.
+    // Without the current the coil's time constant is identified (once on the model, profiled
+    // per candidate), and the effects before the coil join the catalogue.
     let mut bare = d.clone();
     bare.current = None;
     let prep_bare = prepare(&bare, None);

@@ -381,24 +381,20 @@ pub fn diagnose(
     let split = ((1.0 - opts.holdout) * index.len() as f64) as usize;
     let (train, test) = index.split_at(split);
     let (first_spec, _) = fit_spec(&model.spec, data, d, None)?;
+    // Drive constants searched on a grid (a coil's time constant) are identified here, once, on
+    // the base model; the candidates start from them (see `candidate` for the check that a
+    // candidate would not rather have another lag).
+    let drive: Vec<(String, Vec<f64>)> = super::regress::drive_grid(&first_spec, d, data)
+        .into_iter()
+        .filter(|(name, _)| first_spec.params().iter().any(|(n, p)| n == name && p.free))
+        .map(|(name, grid)| (name, grid.iter().step_by(2).copied().collect()))
+        .collect();
     // The base is fitted again from its own fit, the start of every candidate: where a fixed
     // column scales with a free parameter (the pneumatic coupling `m/τ` with a free mass), the
     // residual's unit moves with that parameter, and a base fitted from the declared values
     // would be measured in other units than the candidates (every candidate then showed a large
     // positive ΔBIC on the pneumatic balance).
     let (mut base_spec, base) = fit_spec(&first_spec, data, d, None)?;
-    // Drive constants searched on a grid (a coil's time constant) are searched again with each
-    // candidate, on a coarse grid around the whole range and the base's value: a lag in the
-    // drive and a missing damping trade against each other, so the base's value may be far
-    // from the candidate's.
-    let drive: Vec<(String, Vec<f64>)> = super::regress::drive_grid(&base_spec, d, data)
-        .into_iter()
-        .map(|(name, grid)| {
-            let mut coarse: Vec<f64> = grid.iter().step_by(2).copied().collect();
-            coarse.push(base_spec.get(&name).unwrap_or(grid[0]));
-            (name, coarse)
-        })
-        .collect();
     for (name, _) in &drive {
         base_spec.set_free(name, false)?;
     }
@@ -535,8 +531,22 @@ fn candidate(
     let mut spec = base_spec.clone();
     spec.add_effect(kind)?;
     let (mut fitted, mut fit) = fit_spec(&spec, data, d, None)?;
+    // A lag in the drive and a missing damping trade against each other, so the base's lag may
+    // be far from the candidate's: the lag is profiled over a coarse grid with the candidate's
+    // nonlinear parameters kept as found and the linear ones refitted (one regression per point;
+    // the exact profile for a candidate linear in its parameters), and the candidate is searched
+    // again at the best lag.
     for (name, grid) in drive {
+        let mut best: Option<(f64, f64)> = None;
         for &g in grid {
+            let mut s = fitted.clone();
+            s.set(name, g)?;
+            let rss = balance(&s, data, d)?.fit(None, 0, d.n_eff_per_sample).rss;
+            if rss < fit.rss && best.is_none_or(|(r, _)| rss < r) {
+                best = Some((rss, g));
+            }
+        }
+        if let Some((_, g)) = best {
             let mut s = spec.clone();
             s.set(name, g)?;
             let (f_spec, f) = fit_spec(&s, data, d, None)?;

@@ -6,7 +6,9 @@
 //!   free parameter refitted at each point. The static gain `K_I K_Mag` scales the drive as the
 //!   mass does, so only their ratio is determined (the fitted mass carries it).
 //! - `pneumatic`: the chamber's lag `τ` and the valve speeds per direction `K_I1`, `K_I2`, from the
-//!   balance with the declared mass as the scale reference (see `regress`).
+//!   balance with the declared mass as the scale of the forces (see `regress`: without viscous
+//!   damping in the model the compliance is the balance's reference and the speeds come out
+//!   directly).
 //!
 //! Other families' drives are the scale reference of the balance itself (a force command, a
 //! measured current): nothing to identify there.
@@ -14,7 +16,9 @@
 use serde::Serialize;
 
 use super::data::Dataset;
-use super::regress::{balance, fit_spec, COIL_TIME_CONSTANT, PNEUMATIC_COUPLING};
+use super::regress::{
+    balance, fit_spec, COIL_TIME_CONSTANT, PNEUMATIC_COMPLIANCE, PNEUMATIC_COUPLING,
+};
 use super::signals::Prepared;
 use crate::physics::{Family, PlantSpec};
 
@@ -174,7 +178,15 @@ fn valves(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<Vec<D
             .and_then(|j| fit.intervals[j].map(|(lo, hi)| (hi - lo, fit.values[j])))
             .map_or(f64::NAN, |(w, v)| 0.5 * w / v.abs().max(f64::MIN_POSITIVE))
     };
-    let r_coupling = rel(PNEUMATIC_COUPLING);
+    // The coupling's relative error: fitted as such with the mass as the reference, or carried
+    // by the mass's coefficient with the compliance as the reference (see `regress`), where the
+    // valve speeds come out directly.
+    let on_compliance = fit.names.iter().any(|n| n == PNEUMATIC_COMPLIANCE);
+    let r_coupling = if on_compliance {
+        rel("pneumatic.mass_kg")
+    } else {
+        rel(PNEUMATIC_COUPLING)
+    };
     Ok(names
         .iter()
         // The lag is not determined where viscous damping takes the same column (the fit kept
@@ -185,6 +197,8 @@ fn valves(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<Vec<D
             // K = coefficient / r and τ = τ_decl / r: relative errors add in quadrature.
             let r = if name.ends_with("time_constant_s") {
                 r_coupling
+            } else if on_compliance {
+                rel(name)
             } else {
                 (rel(name).powi(2) + r_coupling.powi(2)).sqrt()
             };

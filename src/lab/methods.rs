@@ -17,7 +17,7 @@ use serde::Serialize;
 use super::compare::{compare, id_comparison, units, Mode};
 use super::data::Dataset;
 use super::model::Model;
-use super::regress::{apply_fit, balance, fit_spec, set_nonlinear, IdFit};
+use super::regress::{apply_fit, balance, fit_spec, set_nonlinear, IdFit, PNEUMATIC_COMPLIANCE};
 use super::signals::Prepared;
 use crate::ident::stats::student_t_quantile;
 use crate::ident::{
@@ -174,7 +174,8 @@ pub fn fit_model(
     };
     match opts.method {
         FitMethod::LeastSquares => {
-            let parameters = parameters_of(&model.spec, &ls_fit);
+            let parameters =
+                on_written_scale(parameters_of(&model.spec, &ls_fit), &ls_spec, &ls_fit);
             // The figure `compare` gives for the written model (moving samples), not the fit's
             // criterion, which also weighs the samples at rest.
             let after = id_comparison(&ls_fit, force_unit, "fitted")?.nrmse;
@@ -255,6 +256,37 @@ fn parameters_of(spec: &PlantSpec, fit: &IdFit) -> Vec<FittedParameter> {
         }
     }
     out
+}
+
+/// The parameters as the written model has them, where the balance was fitted on another scale:
+/// on the pneumatic chamber's compliance (see `regress`) the forces come out per the fitted
+/// coupling and the mass's coefficient is the coupling itself; the model keeps the declared mass
+/// and scales the forces, and so do the printed values and intervals.
+fn on_written_scale(
+    mut parameters: Vec<FittedParameter>,
+    spec: &PlantSpec,
+    fit: &IdFit,
+) -> Vec<FittedParameter> {
+    if !fit.names.iter().any(|n| n == PNEUMATIC_COMPLIANCE) {
+        return parameters;
+    }
+    for p in &mut parameters {
+        let Some(written) = spec.get(&p.name) else {
+            continue;
+        };
+        if p.name == "pneumatic.mass_kg" {
+            p.status = Status::Kept;
+            p.interval = None;
+        } else if p.value != 0.0 {
+            let r = written / p.value;
+            p.interval = p.interval.map(|(lo, hi)| {
+                let (a, b) = (lo * r, hi * r);
+                (a.min(b), a.max(b))
+            });
+        }
+        p.value = written;
+    }
+    parameters
 }
 
 /// Recursive least squares over the balance of the least-squares spec (its nonlinear

@@ -200,6 +200,10 @@ pub(super) fn supply_ratio(spec: &PlantSpec, raw: &Dataset) -> Vec<f64> {
 /// the valve gains are not given.
 pub const PNEUMATIC_COUPLING: &str = "chamber coupling m/τ (relative)";
 
+/// The pneumatic chamber's compliance `c_decl v` as the balance's scale reference (valve gains
+/// not given, no viscous damping in the model): the mass's coefficient carries `c_decl / c`.
+pub const PNEUMATIC_COMPLIANCE: &str = "chamber compliance c_decl v (reference)";
+
 fn is_free(spec: &PlantSpec, name: &str) -> bool {
     spec.params().iter().any(|(n, p)| n == name && p.free)
 }
@@ -492,7 +496,19 @@ fn body_drive_terms(
                 zero_phase(&up, fc, dt),
             ));
             let compliance: Vec<f64> = d.v.iter().map(|v| c * v).collect();
-            if from_data {
+            if from_data && !has(EffectKind::Viscous) {
+                // Drive constants not given and no viscous damping beside the chamber: the
+                // compliance is the scale reference and the mass is fitted (its coefficient
+                // `μ = m c_decl / c`). The speed balance `v ≈ K d` is what a record resolves
+                // best: where the chamber's lag is shorter than the filter resolves (2 ms against
+                // 20 ms samples on the simulated drive), `m a` is a small difference of large
+                // terms, and with the mass as the reference the valve speeds shrank to the noise
+                // (K_I1, K_I2 at 0 on `actuator sim --family pneumatic` records). `apply_fit`
+                // turns the fit back into the declared mass and the coupling `c / c_decl`.
+                terms[inertia].free = true;
+                terms[inertia].bounds = (0.0, f64::INFINITY);
+                terms.push(fixed_term(PNEUMATIC_COMPLIANCE, compliance));
+            } else if from_data {
                 // Drive constants not given: the declared mass is the scale reference and the
                 // chamber's coupling `m/τ` is fitted with the valve gains (the column `c_decl v`
                 // carries the coefficient `c / c_decl`). The compliance cannot be the reference
@@ -793,19 +809,6 @@ impl Balance {
         self.finish(values, free, intervals, extra, &self.index, breakaway)
     }
 
-    fn target_and_prediction(&self, values: &[f64], free: &[bool], k: usize) -> (f64, f64) {
-        let mut target = 0.0;
-        let mut pred = 0.0;
-        for (j, t) in self.terms.iter().enumerate() {
-            if free[j] {
-                pred += values[j] * t.col[k];
-            } else {
-                target -= values[j] * t.col[k];
-            }
-        }
-        (target, pred)
-    }
-
     /// The friction the balance demands, `F_f = -Σ_{j not dry} θ_j φ_j(k)`, smoothed once more
     /// (at a quarter of the corner): the noise of the differentiated position falls steeply
     /// with the corner, and a positive-weighted average of a friction inside the band stays
@@ -883,13 +886,24 @@ impl Balance {
         index: &[usize],
         breakaway: Option<(f64, f64)>,
     ) -> IdFit {
-        let mut target = Vec::with_capacity(index.len());
-        let mut residual = Vec::with_capacity(index.len());
-        for &k in index {
-            let (t, p) = self.target_and_prediction(&values, &free, k);
-            target.push(t);
-            residual.push(t - p);
+        // Column by column, each sum in the order of the terms.
+        let mut target = vec![0.0; index.len()];
+        let mut pred = vec![0.0; index.len()];
+        for (j, t) in self.terms.iter().enumerate() {
+            let (acc, sign) = if free[j] {
+                (&mut pred, 1.0)
+            } else {
+                (&mut target, -1.0)
+            };
+            for (a, &k) in acc.iter_mut().zip(index) {
+                if sign > 0.0 {
+                    *a += values[j] * t.col[k];
+                } else {
+                    *a -= values[j] * t.col[k];
+                }
+            }
         }
+        let residual: Vec<f64> = target.iter().zip(&pred).map(|(t, p)| t - p).collect();
         let standstill = self.standstill_in(index);
         let band = self.band(&values, breakaway);
         let demanded = if standstill.is_empty() {
@@ -961,6 +975,42 @@ impl Balance {
         self.fit_from(values, free, index, extra, n_eff_per_sample, true)
     }
 
+    /// The free columns `cols` that take part in a collinearity on the samples `index`: those
+    /// with a share in a null direction of the column-equilibrated regressor (eigenvectors of its
+    /// Gram matrix with an eigenvalue below 1e-8 of the largest, singular values below 1e-4).
+    /// Fixing any other column leaves the collinearity in place, so only these are worth trying.
+    fn collinear(&self, cols: &[usize], index: &[usize]) -> Vec<usize> {
+        let m = cols.len();
+        let picked: Vec<Vec<f64>> = cols
+            .iter()
+            .map(|&j| {
+                let c = &self.terms[j].col;
+                let v: Vec<f64> = index.iter().map(|&k| c[k]).collect();
+                let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+                let norm = if norm > 0.0 { norm } else { 1.0 };
+                v.into_iter().map(|x| x / norm).collect()
+            })
+            .collect();
+        let gram = DMatrix::from_fn(m, m, |a, b| {
+            picked[a].iter().zip(&picked[b]).map(|(x, y)| x * y).sum()
+        });
+        let eig = nalgebra::SymmetricEigen::new(gram);
+        let top = eig.eigenvalues.amax();
+        let mut involved = Vec::new();
+        for (i, &l) in eig.eigenvalues.iter().enumerate() {
+            if l <= 1e-8 * top || i == eig.eigenvalues.imin() {
+                let v = eig.eigenvectors.column(i);
+                let largest: f64 = v.amax();
+                for (c, &j) in cols.iter().enumerate() {
+                    if v[c].abs() > 1e-3 * largest && !involved.contains(&j) {
+                        involved.push(j);
+                    }
+                }
+            }
+        }
+        involved
+    }
+
     /// [`Balance::fit`] from the given coefficients and freedom. `branch`: on collinear columns,
     /// try each one fixed (see below) rather than only the one the solver names.
     fn fit_from(
@@ -978,18 +1028,21 @@ impl Balance {
             if cols.is_empty() || index.len() <= cols.len() + 1 {
                 break;
             }
+            // Column by column (the matrix is stored so): the same sums in the same order as
+            // row by row, at a fraction of the cache misses.
             let mut psi = DMatrix::<f64>::zeros(index.len(), cols.len());
             let mut y = DVector::<f64>::zeros(index.len());
-            for (r, &k) in index.iter().enumerate() {
-                let mut t = 0.0;
-                for (j, term) in self.terms.iter().enumerate() {
-                    if !free[j] {
-                        t -= values[j] * term.col[k];
+            for (j, term) in self.terms.iter().enumerate() {
+                if !free[j] {
+                    for (t, &k) in y.iter_mut().zip(index) {
+                        *t -= values[j] * term.col[k];
                     }
                 }
-                y[r] = t;
-                for (c, &j) in cols.iter().enumerate() {
-                    psi[(r, c)] = self.terms[j].col[k];
+            }
+            for (c, &j) in cols.iter().enumerate() {
+                let col = &self.terms[j].col;
+                for (x, &k) in psi.column_mut(c).iter_mut().zip(index) {
+                    *x = col[k];
                 }
             }
             match least_squares(&psi, &y) {
@@ -1021,10 +1074,13 @@ impl Balance {
                     // bites on the others, and it changes the friction band at rest: take the
                     // choice whose whole fit (bounds, rest included) leaves the least residual.
                     let named = cols[column];
+                    let involved = self.collinear(&cols, index);
                     let mut best: Option<IdFit> = None;
-                    for j in
-                        std::iter::once(named).chain(cols.iter().copied().filter(|&j| j != named))
-                    {
+                    for j in std::iter::once(named).chain(
+                        cols.iter()
+                            .copied()
+                            .filter(|&j| j != named && involved.contains(&j)),
+                    ) {
                         let mut fixed = free.clone();
                         fixed[j] = false;
                         let fit = self.fit_from(
@@ -1350,6 +1406,57 @@ pub fn apply_fit(spec: &mut PlantSpec, bal: &Balance, fit: &IdFit) -> anyhow::Re
             }
         }
     }
+    if fit.names.iter().any(|n| n == PNEUMATIC_COMPLIANCE) {
+        // Fitted on the compliance `c_decl v`: the mass's coefficient is `μ = m c_decl / c`.
+        // With the declared mass as the scale, the coupling is `r = c / c_decl = m / μ`, the lag
+        // `τ = τ_decl / r`, and every other force-valued coefficient scales by `r`; the valve
+        // speeds come out as they are.
+        let mass = "pneumatic.mass_kg";
+        let declared = bal
+            .terms
+            .iter()
+            .find(|t| t.name == mass)
+            .map_or(f64::NAN, |t| t.value);
+        let mu = fit
+            .names
+            .iter()
+            .position(|n| n == mass)
+            .map_or(f64::NAN, |j| fit.values[j]);
+        let r = declared / mu;
+        // The declared mass stays; a mass coefficient at its bound (the lag not resolved by
+        // the record) leaves the lag and the forces as declared.
+        spec.set(mass, declared)?;
+        if r > 0.0 && r.is_finite() {
+            let tau = spec
+                .get("pneumatic.velocity_time_constant_s")
+                .unwrap_or(0.0);
+            spec.set("pneumatic.velocity_time_constant_s", tau / r)?;
+            let breakaway: Vec<String> = if bal.breakaway_free {
+                let fsx = force_suffix(spec);
+                ["pos", "neg"]
+                    .iter()
+                    .map(|side| format!("stiction.breakaway_{side}{fsx}"))
+                    .filter(|k| is_free(spec, k))
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            for key in &breakaway {
+                let v = spec.get(key).unwrap_or(0.0);
+                spec.set(key, v * r)?;
+            }
+            for (j, name) in fit.names.iter().enumerate() {
+                let scaled = bal.terms[j].free
+                    && name != mass
+                    && !name.starts_with("pneumatic.gain_")
+                    && spec.get(name).is_some();
+                if scaled {
+                    let v = spec.get(name).unwrap_or(0.0);
+                    spec.set(name, v * r)?;
+                }
+            }
+        }
+    }
     Ok(())
 }
 
@@ -1414,8 +1521,10 @@ mod tests {
     #[test]
     fn pneumatic_valve_speeds_and_lag_follow_the_fitted_coupling() {
         // The balance's valve columns carry c_decl: with the coupling fitted at r c_decl the
-        // speeds are the coefficients over r and the lag the declared one over r.
-        let spec = PlantSpec::new(Family::Pneumatic);
+        // speeds are the coefficients over r and the lag the declared one over r. (Viscous
+        // damping in the model: the mass is the reference.)
+        let mut spec = PlantSpec::new(Family::Pneumatic);
+        spec.add_effect(EffectKind::Viscous).expect("viscous");
         let n = 400;
         let raw = Dataset {
             input: (0..n).map(|k| (k as f64 * 0.05).sin()).collect(),
@@ -1443,5 +1552,47 @@ mod tests {
             (out.get("pneumatic.velocity_time_constant_s").expect("tau") - tau / 2.0).abs() < 1e-15
         );
         assert!((out.get("pneumatic.gain_down_m_per_s").expect("down") - 0.03).abs() < 1e-15);
+    }
+
+    #[test]
+    fn pneumatic_on_the_compliance_keeps_the_mass_and_scales_the_forces() {
+        // No viscous damping: the compliance c_decl v is the reference and the mass's coefficient
+        // μ = m c_decl / c. With μ at half the declared mass the coupling is twice the declared:
+        // the lag halves, the forces double, the speeds are the coefficients as they are.
+        let mut spec = PlantSpec::new(Family::Pneumatic);
+        spec.add_effect(EffectKind::Coulomb).expect("coulomb");
+        let n = 400;
+        let raw = Dataset {
+            input: (0..n).map(|k| (k as f64 * 0.05).sin()).collect(),
+            ..data(vec![0.0; n])
+        };
+        let d = crate::lab::signals::prepare(&raw, None);
+        let bal = balance(&spec, &raw, &d).expect("balance");
+        let at = |name: &str| bal.terms.iter().position(|t| t.name == name).expect(name);
+        assert!(!bal.terms[at(PNEUMATIC_COMPLIANCE)].free);
+        assert!(
+            bal.terms[at("pneumatic.mass_kg")].free,
+            "the mass is fitted"
+        );
+        let mass = spec.get("pneumatic.mass_kg").expect("mass");
+        let mut fit = bal.evaluate();
+        fit.values[at("pneumatic.mass_kg")] = 0.5 * mass;
+        fit.values[at("pneumatic.gain_up_m_per_s")] = 0.04;
+        fit.values[at("coulomb.coulomb_pos_n")] = 0.1;
+        let mut out = spec.clone();
+        apply_fit(&mut out, &bal, &fit).expect("applies");
+        let get = |name: &str| out.get(name).expect(name);
+        let tau = spec.get("pneumatic.velocity_time_constant_s").expect("tau");
+        assert_eq!(get("pneumatic.mass_kg"), mass);
+        assert!((get("pneumatic.velocity_time_constant_s") - tau / 2.0).abs() < 1e-15);
+        assert!((get("pneumatic.gain_up_m_per_s") - 0.04).abs() < 1e-15);
+        assert!((get("coulomb.coulomb_pos_n") - 0.2).abs() < 1e-15);
+        // A mass coefficient at its bound of 0 (the lag not resolved): all as declared but
+        // the fitted speeds.
+        fit.values[at("pneumatic.mass_kg")] = 0.0;
+        let mut out = spec.clone();
+        apply_fit(&mut out, &bal, &fit).expect("applies");
+        assert_eq!(out.get("pneumatic.mass_kg"), Some(mass));
+        assert_eq!(out.get("pneumatic.velocity_time_constant_s"), Some(tau));
     }
 }

@@ -17,11 +17,12 @@ use crate::daemon::config::{CommandKind, Config};
 pub const DRIVE_GAINS: [&str; 2] = ["pneumatic.gain_down_m_per_s", "pneumatic.gain_up_m_per_s"];
 
 /// Why a record of the closed loop leaves the drive gains open, and what record determines them.
-pub const CLOSED_LOOP: &str = "On a record of the closed loop the drive gain is not \
-    identifiable: the P controller sets the duty from the position error, so a weaker drive with \
-    more duty and a stronger one with less explain the same motion, and the short small-duty \
-    pulses are mostly stiction. Record motion at large duty in both directions (duty steps, or \
-    set-point steps over the stroke with the valves saturated) and fit again";
+pub const CLOSED_LOOP: &str = "The record does not determine the drive gain well enough: \
+    in a closed loop the P controller sets the duty from the position error, so a record with \
+    little motion at large duty leaves a weaker drive with more duty and a stronger one with less \
+    nearly alike, and the short small-duty pulses are mostly stiction. Record motion at large duty \
+    in both directions (duty steps, or set-point steps over the stroke with the valves saturated) \
+    and fit again";
 
 /// One supply point of the schedule as the daemon will run it.
 #[derive(Debug, Clone, PartialEq)]
