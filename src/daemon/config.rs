@@ -7,6 +7,7 @@ use crate::control::{
     PneumaticAdaptive, PneumaticAdaptiveConfig, SchedulePoint,
 };
 use crate::param::Declared;
+use crate::param_key;
 use crate::supervise::{
     DisturbanceObserver, EstimatorSupervisorConfig, FaultMachineConfig, ObserverConfig,
     ParameterEstimator, Reaction, SupervisedFault,
@@ -48,26 +49,8 @@ pub struct Config {
     pub axis: Vec<AxisConfig>,
 }
 
-/// `[state]`: where what the axes learn is kept across restarts.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct StateConfig {
-    /// State file (TOML, written atomically: temporary file, fsync, rename); absent: nothing is
-    /// kept and every start learns again. Under systemd: `/var/lib/actuatord/<name>.toml`.
-    pub file: Option<PathBuf>,
-    /// How often the learned values are offered to the writer; the file is rewritten only when
-    /// they changed. They are also written when the daemon stops.
-    pub save_interval_s: f64,
-}
-
-impl Default for StateConfig {
-    fn default() -> Self {
-        Self {
-            file: None,
-            save_interval_s: 10.0,
-        }
-    }
-}
+/// `[node]`, `[cycle]`, `[record]` and `[state]`, declared with their ranges and defaults.
+pub use super::node_sections::{CycleConfig, NodeConfig, RecordConfig, StateConfig};
 
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -120,71 +103,6 @@ fn default_bitrate() -> u32 {
 
 fn default_max_load() -> f64 {
     0.7
-}
-
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct NodeConfig {
-    /// The daemon's own CANopen node id, 1..=127.
-    pub node_id: u8,
-    pub heartbeat_period_s: f64,
-    /// Period of the fault_state, tuned_parameters and loop_status frames.
-    pub status_period_s: f64,
-}
-
-impl Default for NodeConfig {
-    fn default() -> Self {
-        Self {
-            node_id: 1,
-            heartbeat_period_s: 0.1,
-            status_period_s: 0.05,
-        }
-    }
-}
-
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct CycleConfig {
-    /// Control period; 2.5 ms (400 Hz) is the paper's solenoid.
-    pub period_s: f64,
-    /// How long after SYNC the cycle waits for the sensor frames before it runs without them.
-    pub sensor_deadline_s: f64,
-    /// SCHED_FIFO priority to ask for (1..=99); 0 runs with the normal scheduler.
-    pub realtime_priority: i32,
-    /// Lock all memory (mlockall) so a page fault cannot stall the cycle.
-    pub lock_memory: bool,
-    /// Share of a status period's cycles that may overrun before the timing warning is raised.
-    pub overrun_warning_ratio: f64,
-}
-
-impl Default for CycleConfig {
-    fn default() -> Self {
-        Self {
-            period_s: 0.0025,
-            sensor_deadline_s: 0.0015,
-            realtime_priority: 80,
-            lock_memory: true,
-            overrun_warning_ratio: 0.05,
-        }
-    }
-}
-
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct RecordConfig {
-    /// Records the cycle can queue for the writer before it drops (and counts) them.
-    pub queue_depth: usize,
-    /// Record every CAN frame sent and received too (MCAP topic /actuatord/can).
-    pub can_frames: bool,
-}
-
-impl Default for RecordConfig {
-    fn default() -> Self {
-        Self {
-            queue_depth: 8192,
-            can_frames: true,
-        }
-    }
 }
 
 /// What the actuator command means.
@@ -423,12 +341,19 @@ impl Config {
                 format!("must be in (0, 1], got {}", self.bus.max_load),
             ));
         }
-        node_id("[node] node_id", self.node.node_id)?;
-        positive("[node] heartbeat_period_s", self.node.heartbeat_period_s)?;
-        positive("[node] status_period_s", self.node.status_period_s)?;
-        positive("[cycle] period_s", self.cycle.period_s)?;
-        positive("[state] save_interval_s", self.state.save_interval_s)?;
-        positive("[cycle] sensor_deadline_s", self.cycle.sensor_deadline_s)?;
+        // The node-wide sections: the ranges declared with them.
+        let section = |name: &'static str| {
+            move |e: ParamError| bad(&format!("[{name}] {}", e.name), e.reason)
+        };
+        self.node
+            .check()
+            .map_err(section(param_key!(Config, node)))?;
+        self.cycle
+            .check()
+            .map_err(section(param_key!(Config, cycle)))?;
+        self.state
+            .check()
+            .map_err(section(param_key!(Config, state)))?;
         if self.cycle.sensor_deadline_s >= self.cycle.period_s {
             return Err(bad(
                 "[cycle] sensor_deadline_s",
@@ -438,15 +363,9 @@ impl Config {
                 ),
             ));
         }
-        if !(0..=99).contains(&self.cycle.realtime_priority) {
-            return Err(bad(
-                "[cycle] realtime_priority",
-                format!("must be 0..=99, got {}", self.cycle.realtime_priority),
-            ));
-        }
-        if self.record.queue_depth == 0 {
-            return Err(bad("[record] queue_depth", "must be > 0".into()));
-        }
+        self.record
+            .check()
+            .map_err(section(param_key!(Config, record)))?;
         if self.axis.is_empty() {
             return Err(bad("[[axis]]", "needs at least one axis".into()));
         }

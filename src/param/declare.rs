@@ -53,12 +53,18 @@ pub struct ParamSpec {
     /// bound: "not watched"). A write of an infinite value leaves it out again, and a
     /// configured value must be finite.
     pub absent: Option<f64>,
+    /// What the range asks for in the words of an error ("> 0", "a node id in 1..=127"), where
+    /// a section keeps the wording its users know; empty: worded from the range.
+    pub words: &'static str,
 }
 
 impl ParamSpec {
     /// What the declared range asks for, in words: "a number in [a, b]", "a finite number > 0",
     /// "a whole number >= 1"...
     fn range_text(&self) -> String {
+        if !self.words.is_empty() {
+            return self.words.to_string();
+        }
         let whole = if self.kind == Kind::Count {
             "whole "
         } else {
@@ -175,6 +181,7 @@ count_value!(u8, 8);
 count_value!(u32, 32);
 count_value!(u64, 32);
 count_value!(usize, 32);
+count_value!(i32, 32);
 
 impl ParamValue for bool {
     const KIND: Kind = Kind::Flag;
@@ -311,7 +318,9 @@ pub const FORCE_PER_COMMAND_UNIT: &str = "N/command";
 /// and whose fields each carry unit, range, access, a line of documentation and, where one
 /// makes sense, a default (a key without a default is required, unless its type is an
 /// `Option`: left out, it is `None`). `min` and `max` may be left out where the type bounds
-/// the value (a count's 0, a path); the side is then open.
+/// the value (a count's 0, a path); the side is then open. `words:` says in an error what the
+/// range asks for, where the wording derived from it ("a finite number > 0") would differ from
+/// the one a section's users already know ("> 0").
 ///
 /// ```ignore
 /// declare_section! {
@@ -337,6 +346,7 @@ macro_rules! declare_section {
                     $(max: $max:expr,)?
                     access: $access:ident,
                     doc: $doc:literal
+                    $(, words: $words:literal)?
                     $(, absent: $absent:expr)?
                     $(, default: $default:expr)? $(,)?
                 }
@@ -395,6 +405,7 @@ macro_rules! declare_section {
                         doc: $doc,
                         access: $crate::param::Access::$access,
                         absent: $crate::__declared_or!(None $(, Some($absent))?),
+                        words: $crate::__declared_or!("" $(, $words)?),
                     },
                 )*
             ];
