@@ -520,8 +520,16 @@ macro_rules! __declared_or {
 /// cannot drift from the declaration. The key is the field's name: a declared section and the
 /// configuration's structs take their TOML keys from their fields without renaming.
 ///
-/// ```ignore
-/// let key: &str = param_key!(ObserverSection, mass_kg); // "mass_kg"
+/// ```
+/// use actuatord::supervise::ObserverSection;
+/// assert_eq!(actuatord::param_key!(ObserverSection, mass_kg), "mass_kg");
+/// ```
+///
+/// A key the section does not declare does not build:
+///
+/// ```compile_fail,E0609
+/// use actuatord::supervise::ObserverSection;
+/// let _ = actuatord::param_key!(ObserverSection, mass);
 /// ```
 #[macro_export]
 macro_rules! param_key {
