@@ -7,12 +7,40 @@ use crate::control::{
     PneumaticAdaptive, PneumaticAdaptiveConfig, SchedulePoint,
 };
 use crate::param::Declared;
+use crate::param_key;
 use crate::supervise::{
     DisturbanceObserver, EstimatorSupervisorConfig, FaultMachineConfig, ObserverConfig,
     ParameterEstimator, Reaction, SupervisedFault,
 };
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
+
+/// An axis key as errors name it, `section.key` or `section`, each name checked against the
+/// configuration's fields ([`param_key!`]).
+macro_rules! axis_key {
+    ($section:ident) => {
+        param_key!(AxisConfig, $section)
+    };
+    ($section:ident : $ty:ty, $key:ident) => {
+        format!(
+            "{}.{}",
+            param_key!(AxisConfig, $section),
+            param_key!($ty, $key)
+        )
+    };
+}
+
+/// A node-wide key as errors name it, `[section] key`, both names checked against the
+/// configuration's fields.
+macro_rules! node_key {
+    ($section:ident : $ty:ty, $key:ident) => {
+        format!(
+            "[{}] {}",
+            param_key!(Config, $section),
+            param_key!($ty, $key)
+        )
+    };
+}
 
 /// A configuration that cannot be used.
 #[derive(Debug, thiserror::Error)]
@@ -48,26 +76,8 @@ pub struct Config {
     pub axis: Vec<AxisConfig>,
 }
 
-/// `[state]`: where what the axes learn is kept across restarts.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct StateConfig {
-    /// State file (TOML, written atomically: temporary file, fsync, rename); absent: nothing is
-    /// kept and every start learns again. Under systemd: `/var/lib/actuatord/<name>.toml`.
-    pub file: Option<PathBuf>,
-    /// How often the learned values are offered to the writer; the file is rewritten only when
-    /// they changed. They are also written when the daemon stops.
-    pub save_interval_s: f64,
-}
-
-impl Default for StateConfig {
-    fn default() -> Self {
-        Self {
-            file: None,
-            save_interval_s: 10.0,
-        }
-    }
-}
+/// `[node]`, `[cycle]`, `[record]` and `[state]`, declared with their ranges and defaults.
+pub use super::node_sections::{CycleConfig, NodeConfig, RecordConfig, StateConfig};
 
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -120,71 +130,6 @@ fn default_bitrate() -> u32 {
 
 fn default_max_load() -> f64 {
     0.7
-}
-
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct NodeConfig {
-    /// The daemon's own CANopen node id, 1..=127.
-    pub node_id: u8,
-    pub heartbeat_period_s: f64,
-    /// Period of the fault_state, tuned_parameters and loop_status frames.
-    pub status_period_s: f64,
-}
-
-impl Default for NodeConfig {
-    fn default() -> Self {
-        Self {
-            node_id: 1,
-            heartbeat_period_s: 0.1,
-            status_period_s: 0.05,
-        }
-    }
-}
-
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct CycleConfig {
-    /// Control period; 2.5 ms (400 Hz) is the paper's solenoid.
-    pub period_s: f64,
-    /// How long after SYNC the cycle waits for the sensor frames before it runs without them.
-    pub sensor_deadline_s: f64,
-    /// SCHED_FIFO priority to ask for (1..=99); 0 runs with the normal scheduler.
-    pub realtime_priority: i32,
-    /// Lock all memory (mlockall) so a page fault cannot stall the cycle.
-    pub lock_memory: bool,
-    /// Share of a status period's cycles that may overrun before the timing warning is raised.
-    pub overrun_warning_ratio: f64,
-}
-
-impl Default for CycleConfig {
-    fn default() -> Self {
-        Self {
-            period_s: 0.0025,
-            sensor_deadline_s: 0.0015,
-            realtime_priority: 80,
-            lock_memory: true,
-            overrun_warning_ratio: 0.05,
-        }
-    }
-}
-
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct RecordConfig {
-    /// Records the cycle can queue for the writer before it drops (and counts) them.
-    pub queue_depth: usize,
-    /// Record every CAN frame sent and received too (MCAP topic /actuatord/can).
-    pub can_frames: bool,
-}
-
-impl Default for RecordConfig {
-    fn default() -> Self {
-        Self {
-            queue_depth: 8192,
-            can_frames: true,
-        }
-    }
 }
 
 /// What the actuator command means.
@@ -406,57 +351,69 @@ impl Config {
             }
         };
         if self.bus.iface.is_empty() {
-            return Err(bad("[bus] iface", "must name a CAN interface".into()));
+            return Err(bad(
+                &node_key!(bus: BusConfig, iface),
+                "must name a CAN interface".into(),
+            ));
         }
         if self.bus.bitrate_bps == 0 {
-            return Err(bad("[bus] bitrate_bps", "must be > 0".into()));
+            return Err(bad(
+                &node_key!(bus: BusConfig, bitrate_bps),
+                "must be > 0".into(),
+            ));
         }
         if !(self.bus.startup_wait_s.is_finite() && self.bus.startup_wait_s >= 0.0) {
             return Err(bad(
-                "[bus] startup_wait_s",
+                &node_key!(bus: BusConfig, startup_wait_s),
                 format!("must be >= 0 s, got {}", self.bus.startup_wait_s),
             ));
         }
         if !(self.bus.max_load > 0.0 && self.bus.max_load <= 1.0) {
             return Err(bad(
-                "[bus] max_load",
+                &node_key!(bus: BusConfig, max_load),
                 format!("must be in (0, 1], got {}", self.bus.max_load),
             ));
         }
-        node_id("[node] node_id", self.node.node_id)?;
-        positive("[node] heartbeat_period_s", self.node.heartbeat_period_s)?;
-        positive("[node] status_period_s", self.node.status_period_s)?;
-        positive("[cycle] period_s", self.cycle.period_s)?;
-        positive("[state] save_interval_s", self.state.save_interval_s)?;
-        positive("[cycle] sensor_deadline_s", self.cycle.sensor_deadline_s)?;
+        // The node-wide sections: the ranges declared with them.
+        let section = |name: &'static str| {
+            move |e: ParamError| bad(&format!("[{name}] {}", e.name), e.reason)
+        };
+        self.node
+            .check()
+            .map_err(section(param_key!(Config, node)))?;
+        self.cycle
+            .check()
+            .map_err(section(param_key!(Config, cycle)))?;
+        self.state
+            .check()
+            .map_err(section(param_key!(Config, state)))?;
         if self.cycle.sensor_deadline_s >= self.cycle.period_s {
             return Err(bad(
-                "[cycle] sensor_deadline_s",
+                &node_key!(cycle: CycleConfig, sensor_deadline_s),
                 format!(
-                    "must be shorter than period_s ({}), got {}",
-                    self.cycle.period_s, self.cycle.sensor_deadline_s
+                    "must be shorter than {} ({}), got {}",
+                    param_key!(CycleConfig, period_s),
+                    self.cycle.period_s,
+                    self.cycle.sensor_deadline_s
                 ),
             ));
         }
-        if !(0..=99).contains(&self.cycle.realtime_priority) {
-            return Err(bad(
-                "[cycle] realtime_priority",
-                format!("must be 0..=99, got {}", self.cycle.realtime_priority),
-            ));
-        }
-        if self.record.queue_depth == 0 {
-            return Err(bad("[record] queue_depth", "must be > 0".into()));
-        }
+        self.record
+            .check()
+            .map_err(section(param_key!(Config, record)))?;
         if self.axis.is_empty() {
             return Err(bad("[[axis]]", "needs at least one axis".into()));
         }
         let mut seen = vec![self.node.node_id];
         for (i, axis) in self.axis.iter().enumerate() {
             let at = |key: &str| format!("[[axis]] #{} ({}) {key}", i + 1, axis.name);
-            node_id(&at("actuator_node_id"), axis.actuator_node_id)?;
+            node_id(
+                &at(param_key!(AxisConfig, actuator_node_id)),
+                axis.actuator_node_id,
+            )?;
             if seen.contains(&axis.actuator_node_id) {
                 return Err(bad(
-                    &at("actuator_node_id"),
+                    &at(param_key!(AxisConfig, actuator_node_id)),
                     format!("{} is already used by another node", axis.actuator_node_id),
                 ));
             }
@@ -466,19 +423,19 @@ impl Config {
             if let Some(f) = &c.state_space_file {
                 if !c.q_per_m.is_empty() || !c.p.is_empty() {
                     return Err(bad(
-                        &at("controller.state_space_file"),
+                        &at(&axis_key!(controller: ControllerConfig, state_space_file)),
                         "replaces q_per_m and p: give one or the other".into(),
                     ));
                 }
                 let ss = crate::control::robust::StateSpaceController::load(f).map_err(|e| {
                     bad(
-                        &at("controller.state_space_file"),
+                        &at(&axis_key!(controller: ControllerConfig, state_space_file)),
                         format!("cannot be used: {e}"),
                     )
                 })?;
                 if (ss.period_s() - self.cycle.period_s).abs() > 1e-9 {
                     return Err(bad(
-                        &at("controller.state_space_file"),
+                        &at(&axis_key!(controller: ControllerConfig, state_space_file)),
                         format!(
                             "{} was designed for a {} s period, the cycle runs at {} s",
                             f.display(),
@@ -489,7 +446,7 @@ impl Config {
                 }
             } else if c.q_per_m.is_empty() || c.q_per_m.len() > crate::control::MAX_ORDER {
                 return Err(bad(
-                    &at("controller.q_per_m"),
+                    &at(&axis_key!(controller: ControllerConfig, q_per_m)),
                     format!(
                         "needs 1 to {} coefficients, got {}",
                         crate::control::MAX_ORDER,
@@ -499,16 +456,19 @@ impl Config {
             }
             if c.p.len() > crate::control::MAX_ORDER {
                 return Err(bad(
-                    &at("controller.p"),
+                    &at(&axis_key!(controller: ControllerConfig, p)),
                     format!("takes at most {} coefficients", crate::control::MAX_ORDER),
                 ));
             }
             if c.q_per_m.iter().chain(&c.p).any(|x| !x.is_finite()) {
-                return Err(bad(&at("controller"), "coefficients must be finite".into()));
+                return Err(bad(
+                    &at(axis_key!(controller)),
+                    "coefficients must be finite".into(),
+                ));
             }
             if c.output_min >= c.output_max {
                 return Err(bad(
-                    &at("controller.output_max"),
+                    &at(&axis_key!(controller: ControllerConfig, output_max)),
                     format!(
                         "must be > output_min ({}), got {}",
                         c.output_min, c.output_max
@@ -517,7 +477,7 @@ impl Config {
             }
             if !(c.output_min..=c.output_max).contains(&axis.safe_command) {
                 return Err(bad(
-                    &at("safe_command"),
+                    &at(param_key!(AxisConfig, safe_command)),
                     format!(
                         "must lie within the controller output limits [{}, {}], got {}",
                         c.output_min, c.output_max, axis.safe_command
@@ -526,63 +486,67 @@ impl Config {
             }
             if axis.command == CommandKind::Duty && (c.output_min < -1.0 || c.output_max > 1.0) {
                 return Err(bad(
-                    &at("controller.output_min/output_max"),
+                    &at(&format!(
+                        "{}/{}",
+                        axis_key!(controller: ControllerConfig, output_min),
+                        param_key!(ControllerConfig, output_max)
+                    )),
                     "must lie within [-1, 1] for command = \"duty\"".into(),
                 ));
             }
             if let Some(f) = &axis.friction_compensation {
                 f.check().map_err(|e| {
-                    bad(&at(&format!("friction_compensation.{}", e.name)), e.reason)
+                    bad(
+                        &at(&format!("{}.{}", axis_key!(friction_compensation), e.name)),
+                        e.reason,
+                    )
                 })?;
             }
             axis.check_intelligence(self.cycle.period_s)
                 .map_err(|(key, rule)| bad(&at(&key), rule))?;
             if let Some(v) = axis.setpoint_rate_max_m_per_s {
-                positive(&at("setpoint_rate_max_m_per_s"), v)?;
+                positive(&at(param_key!(AxisConfig, setpoint_rate_max_m_per_s)), v)?;
             }
             let l = &axis.limits;
             l.check()
-                .map_err(|e| bad(&at(&format!("limits.{}", e.name)), e.reason))?;
+                .map_err(|e| bad(&at(&format!("{}.{}", axis_key!(limits), e.name)), e.reason))?;
             for (lo_key, lo, hi_key, hi) in [
                 (
-                    "limits.position_min_m",
+                    param_key!(LimitsSection, position_min_m),
                     l.position_min_m,
-                    "limits.position_max_m",
+                    param_key!(LimitsSection, position_max_m),
                     l.position_max_m,
                 ),
                 (
-                    "limits.supply_voltage_min_v",
+                    param_key!(LimitsSection, supply_voltage_min_v),
                     l.supply_voltage_min_v,
-                    "limits.supply_voltage_max_v",
+                    param_key!(LimitsSection, supply_voltage_max_v),
                     l.supply_voltage_max_v,
                 ),
                 (
-                    "limits.supply_pressure_min_pa",
+                    param_key!(LimitsSection, supply_pressure_min_pa),
                     l.supply_pressure_min_pa,
-                    "limits.supply_pressure_max_pa",
+                    param_key!(LimitsSection, supply_pressure_max_pa),
                     l.supply_pressure_max_pa,
                 ),
                 (
-                    "limits.supply_voltage_scheduled_min_v",
+                    param_key!(LimitsSection, supply_voltage_scheduled_min_v),
                     l.supply_voltage_scheduled_min_v,
-                    "limits.supply_voltage_scheduled_max_v",
+                    param_key!(LimitsSection, supply_voltage_scheduled_max_v),
                     l.supply_voltage_scheduled_max_v,
                 ),
                 (
-                    "limits.supply_pressure_scheduled_min_pa",
+                    param_key!(LimitsSection, supply_pressure_scheduled_min_pa),
                     l.supply_pressure_scheduled_min_pa,
-                    "limits.supply_pressure_scheduled_max_pa",
+                    param_key!(LimitsSection, supply_pressure_scheduled_max_pa),
                     l.supply_pressure_scheduled_max_pa,
                 ),
             ] {
                 if let (Some(lo), Some(hi)) = (lo, hi) {
                     if lo >= hi {
                         return Err(bad(
-                            &at(hi_key),
-                            format!(
-                                "must be > {} ({lo}), got {hi}",
-                                lo_key.trim_start_matches("limits.")
-                            ),
+                            &at(&format!("{}.{hi_key}", axis_key!(limits))),
+                            format!("must be > {lo_key} ({lo}), got {hi}"),
                         ));
                     }
                 }
@@ -591,25 +555,25 @@ impl Config {
             // its safe state, and a warning band reaching beyond it would never be seen.
             for (key, v, lo, hi) in [
                 (
-                    "limits.supply_voltage_scheduled_min_v",
+                    param_key!(LimitsSection, supply_voltage_scheduled_min_v),
                     l.supply_voltage_scheduled_min_v,
                     l.supply_voltage_min_v,
                     l.supply_voltage_max_v,
                 ),
                 (
-                    "limits.supply_voltage_scheduled_max_v",
+                    param_key!(LimitsSection, supply_voltage_scheduled_max_v),
                     l.supply_voltage_scheduled_max_v,
                     l.supply_voltage_min_v,
                     l.supply_voltage_max_v,
                 ),
                 (
-                    "limits.supply_pressure_scheduled_min_pa",
+                    param_key!(LimitsSection, supply_pressure_scheduled_min_pa),
                     l.supply_pressure_scheduled_min_pa,
                     l.supply_pressure_min_pa,
                     l.supply_pressure_max_pa,
                 ),
                 (
-                    "limits.supply_pressure_scheduled_max_pa",
+                    param_key!(LimitsSection, supply_pressure_scheduled_max_pa),
                     l.supply_pressure_scheduled_max_pa,
                     l.supply_pressure_min_pa,
                     l.supply_pressure_max_pa,
@@ -617,11 +581,14 @@ impl Config {
             ] {
                 let Some(v) = v else { continue };
                 if !v.is_finite() {
-                    return Err(bad(&at(key), format!("must be finite, got {v}")));
+                    return Err(bad(
+                        &at(&format!("{}.{key}", axis_key!(limits))),
+                        format!("must be finite, got {v}"),
+                    ));
                 }
                 if lo.is_some_and(|lo| v < lo) || hi.is_some_and(|hi| v > hi) {
                     return Err(bad(
-                        &at(key),
+                        &at(&format!("{}.{key}", axis_key!(limits))),
                         format!(
                             "must lie inside the hard band [{}, {}], got {v}",
                             lo.unwrap_or(f64::NEG_INFINITY),
@@ -636,7 +603,7 @@ impl Config {
             };
             if !in_travel(axis.initial_setpoint_m) {
                 return Err(bad(
-                    &at("initial_setpoint_m"),
+                    &at(param_key!(AxisConfig, initial_setpoint_m)),
                     format!(
                         "{} lies outside the position limits",
                         axis.initial_setpoint_m
@@ -670,7 +637,7 @@ impl Config {
         let load = super::bus_load::bus_load(self);
         if load.load > self.bus.max_load {
             return Err(bad(
-                "[bus] max_load",
+                &node_key!(bus: BusConfig, max_load),
                 format!(
                     "is {:.0} %, but the configured traffic needs {:.0} kbit/s = {:.0} % of {} kbit/s: lower the rates or raise bitrate_bps",
                     self.bus.max_load * 100.0,
@@ -718,7 +685,7 @@ fn schedule_points(
     let n = supply.len();
     let mut cols = Vec::with_capacity(columns.len());
     for (key, v) in columns {
-        cols.push(column("schedule", key, v, n)?);
+        cols.push(column(axis_key!(schedule), key, v, n)?);
     }
     Ok((0..n)
         .map(|i| SchedulePoint {
@@ -794,12 +761,19 @@ impl AxisConfig {
     pub fn gain_factor_points(&self) -> Result<Option<Vec<SchedulePoint>>, KeyRule> {
         match &self.schedule {
             Some(s) if !s.schedules_drive_gains() => match &s.command_limit_factor {
-                None => schedule_points(s, &[("gain_factor", &s.gain_factor)]).map(Some),
+                None => schedule_points(
+                    s,
+                    &[(param_key!(ScheduleSection, gain_factor), &s.gain_factor)],
+                )
+                .map(Some),
                 Some(_) => schedule_points(
                     s,
                     &[
-                        ("gain_factor", &s.gain_factor),
-                        ("command_limit_factor", &s.command_limit_factor),
+                        (param_key!(ScheduleSection, gain_factor), &s.gain_factor),
+                        (
+                            param_key!(ScheduleSection, command_limit_factor),
+                            &s.command_limit_factor,
+                        ),
                     ],
                 )
                 .map(Some),
@@ -819,13 +793,19 @@ impl AxisConfig {
         let schedule = schedule_points(
             s,
             &[
-                ("drive_gain_down_m_per_s", &s.drive_gain_down_m_per_s),
-                ("drive_gain_up_m_per_s", &s.drive_gain_up_m_per_s),
+                (
+                    param_key!(ScheduleSection, drive_gain_down_m_per_s),
+                    &s.drive_gain_down_m_per_s,
+                ),
+                (
+                    param_key!(ScheduleSection, drive_gain_up_m_per_s),
+                    &s.drive_gain_up_m_per_s,
+                ),
             ],
         )?;
         let effort_weight_m2 = s.effort_weight_m2.ok_or_else(|| {
             (
-                "schedule.effort_weight_m2".to_string(),
+                axis_key!(schedule: ScheduleSection, effort_weight_m2),
                 "is needed with drive gains".to_string(),
             )
         })?;
@@ -892,59 +872,71 @@ impl AxisConfig {
     /// not found later by the cycle.
     fn check_intelligence(&self, period_s: f64) -> Result<(), KeyRule> {
         if let Some(c) = self.adaptive_friction_config(period_s) {
-            AdaptiveFriction::new(c).map_err(param("adaptive_friction"))?;
+            AdaptiveFriction::new(c).map_err(param(axis_key!(adaptive_friction)))?;
         }
         if let Some(t) = &self.learned_table {
             if self.adaptive_friction.is_none() {
                 return Err((
-                    "learned_table".to_string(),
+                    axis_key!(learned_table).to_string(),
                     "stores the adapted friction compensation: it needs [axis.adaptive_friction]"
                         .to_string(),
                 ));
             }
             // A drive's supply is its DC link voltage.
             let (key, wanted) = match self.command {
-                CommandKind::Duty => ("supply_pressure_edges_pa", &t.supply_pressure_edges_pa),
-                _ => ("supply_voltage_edges_v", &t.supply_voltage_edges_v),
+                CommandKind::Duty => (
+                    param_key!(LearnedTableSection, supply_pressure_edges_pa),
+                    &t.supply_pressure_edges_pa,
+                ),
+                _ => (
+                    param_key!(LearnedTableSection, supply_voltage_edges_v),
+                    &t.supply_voltage_edges_v,
+                ),
             };
             let other = match self.command {
-                CommandKind::Duty => ("supply_voltage_edges_v", &t.supply_voltage_edges_v),
-                _ => ("supply_pressure_edges_pa", &t.supply_pressure_edges_pa),
+                CommandKind::Duty => (
+                    param_key!(LearnedTableSection, supply_voltage_edges_v),
+                    &t.supply_voltage_edges_v,
+                ),
+                _ => (
+                    param_key!(LearnedTableSection, supply_pressure_edges_pa),
+                    &t.supply_pressure_edges_pa,
+                ),
             };
             if wanted.is_none() || other.1.is_some() {
                 return Err((
-                    format!("learned_table.{key}"),
+                    format!("{}.{key}", axis_key!(learned_table)),
                     format!(
                         "is the supply this axis measures: set it, and not {}",
                         other.0
                     ),
                 ));
             }
-            t.check().map_err(param("learned_table"))?;
+            t.check().map_err(param(axis_key!(learned_table)))?;
             if let Some((c, _)) = self.learned_table_config(period_s) {
                 LearnedTable::new(c).map_err(|e| {
                     let key = match e.name {
                         "supply_edges" => key,
                         other => other,
                     };
-                    (format!("learned_table.{key}"), e.reason)
+                    (format!("{}.{key}", axis_key!(learned_table)), e.reason)
                 })?;
             }
         }
         if let Some(d) = &self.dither {
-            d.check_adaptation().map_err(param("dither"))?;
-            Dither::new(d.config(period_s)).map_err(param("dither"))?;
+            d.check_adaptation().map_err(param(axis_key!(dither)))?;
+            Dither::new(d.config(period_s)).map_err(param(axis_key!(dither)))?;
             // Whatever the generator leaves: the ranges declared with the section.
-            d.check().map_err(param("dither"))?;
+            d.check().map_err(param(axis_key!(dither)))?;
         }
         if let Some(c) = self.correction_config() {
-            NonlinearCorrection::new(c).map_err(param("correction"))?;
+            NonlinearCorrection::new(c).map_err(param(axis_key!(correction)))?;
         }
         if let Some(s) = &self.schedule {
             match (&s.supply_voltage_v, &s.supply_pressure_pa) {
                 (Some(_), Some(_)) | (None, None) => {
                     return Err((
-                        "schedule".to_string(),
+                        axis_key!(schedule).to_string(),
                         "needs exactly one of supply_voltage_v and supply_pressure_pa".to_string(),
                     ))
                 }
@@ -952,7 +944,7 @@ impl AxisConfig {
             }
             if s.schedules_drive_gains() == s.gain_factor.is_some() {
                 return Err((
-                    "schedule".to_string(),
+                    axis_key!(schedule).to_string(),
                     "needs either gain_factor or drive_gain_down_m_per_s and \
                      drive_gain_up_m_per_s"
                         .to_string(),
@@ -961,28 +953,28 @@ impl AxisConfig {
             if s.schedules_drive_gains() {
                 if self.command != CommandKind::Duty {
                     return Err((
-                        "schedule.drive_gain_down_m_per_s".to_string(),
+                        axis_key!(schedule: ScheduleSection, drive_gain_down_m_per_s),
                         "schedules direction P gains, which need command = \"duty\"".to_string(),
                     ));
                 }
                 if s.variable().0 != ScheduleVariable::SupplyPressure {
                     return Err((
-                        "schedule.supply_voltage_v".to_string(),
+                        axis_key!(schedule: ScheduleSection, supply_voltage_v),
                         "drive gains are scheduled on supply_pressure_pa".to_string(),
                     ));
                 }
             }
             if s.command_limit_factor.is_some() && s.schedules_drive_gains() {
                 return Err((
-                    "schedule.command_limit_factor".to_string(),
+                    axis_key!(schedule: ScheduleSection, command_limit_factor),
                     "goes with gain_factor, not with drive gains".to_string(),
                 ));
             }
             let points = self.gain_factor_points()?;
             // The gain and limit factors, the deadband: the ranges declared with the section.
-            s.check().map_err(param("schedule"))?;
+            s.check().map_err(param(axis_key!(schedule)))?;
             if let Some(points) = points {
-                GainSchedule::new(&points).map_err(param("schedule"))?;
+                GainSchedule::new(&points).map_err(param(axis_key!(schedule)))?;
             }
         }
         if self.pneumatic_adaptive.is_some()
@@ -992,7 +984,7 @@ impl AxisConfig {
                 .is_some_and(|s| s.schedules_drive_gains())
         {
             return Err((
-                "pneumatic_adaptive".to_string(),
+                axis_key!(pneumatic_adaptive).to_string(),
                 "needs [axis.schedule] with drive_gain_down_m_per_s and drive_gain_up_m_per_s \
                  (its start and fallback)"
                     .to_string(),
@@ -1000,67 +992,76 @@ impl AxisConfig {
         }
         if let Some(c) = self.pneumatic_config(period_s)? {
             let section = if self.pneumatic_adaptive.is_some() {
-                "pneumatic_adaptive"
+                axis_key!(pneumatic_adaptive)
             } else {
-                "schedule"
+                axis_key!(schedule)
             };
             PneumaticAdaptive::new(&c).map_err(param(section))?;
         }
         if let Some(o) = &self.observer {
             if !(o.warmup_s.is_finite() && o.warmup_s >= 0.0) {
                 return Err((
-                    "observer.warmup_s".to_string(),
+                    axis_key!(observer: ObserverSection, warmup_s),
                     format!("must be >= 0, got {}", o.warmup_s),
                 ));
             }
             for (key, v) in [
-                ("band_sigmas", o.band_sigmas),
-                ("band_min_halfwidth_m", o.band_min_halfwidth_m),
-                ("moving_speed_m_per_s", o.moving_speed_m_per_s),
+                (param_key!(ObserverSection, band_sigmas), o.band_sigmas),
+                (
+                    param_key!(ObserverSection, band_min_halfwidth_m),
+                    o.band_min_halfwidth_m,
+                ),
+                (
+                    param_key!(ObserverSection, moving_speed_m_per_s),
+                    o.moving_speed_m_per_s,
+                ),
             ] {
                 if !(v.is_finite() && v >= 0.0) {
-                    return Err((format!("observer.{key}"), format!("must be >= 0, got {v}")));
+                    return Err((
+                        format!("{}.{key}", axis_key!(observer)),
+                        format!("must be >= 0, got {v}"),
+                    ));
                 }
             }
             if o.learn_samples < 2 {
                 return Err((
-                    "observer.learn_samples".to_string(),
+                    axis_key!(observer: ObserverSection, learn_samples),
                     format!("must be >= 2, got {}", o.learn_samples),
                 ));
             }
         }
         if let Some(c) = self.observer_config(period_s) {
-            DisturbanceObserver::new(c).map_err(param("observer"))?;
+            DisturbanceObserver::new(c).map_err(param(axis_key!(observer)))?;
         }
         if let Some(o) = &self.observer {
             // Whatever the rules above leave: the ranges declared with the section.
-            o.check().map_err(param("observer"))?;
+            o.check().map_err(param(axis_key!(observer)))?;
         }
         if let Some(p) = &self.parameter_estimation {
-            p.check().map_err(param("parameter_estimation"))?;
+            p.check().map_err(param(axis_key!(parameter_estimation)))?;
             if let Err(e) = p.load_fault_table() {
                 return Err((
-                    "parameter_estimation.fault_table".to_string(),
+                    axis_key!(parameter_estimation: ParameterEstimationSection, fault_table),
                     e.to_string(),
                 ));
             }
             if self.command != CommandKind::Voltage {
                 return Err((
-                    "parameter_estimation".to_string(),
+                    axis_key!(parameter_estimation).to_string(),
                     "models the solenoid drive, which needs command = \"voltage\"".to_string(),
                 ));
             }
         }
         if let Some(p) = &self.parameter_estimation {
             ParameterEstimator::new(p.estimator_config(period_s))
-                .map_err(param("parameter_estimation"))?;
+                .map_err(param(axis_key!(parameter_estimation)))?;
         }
         // A force (torque) command is the observer's model with a unit force gain.
         if self.observer.is_some()
             && !matches!(self.command, CommandKind::Voltage | CommandKind::Torque)
         {
             return Err((
-                "observer".to_string(),
+                axis_key!(observer).to_string(),
                 "models the drive force, which needs command = \"voltage\" or \"torque\""
                     .to_string(),
             ));

@@ -2,7 +2,9 @@
 //! the way SDO writes reach the configuration at a cycle boundary.
 
 use super::axis::AxisStep;
-use super::config::{AxisConfig, CommandKind, Config, FrictionCompensationSection};
+use super::config::{
+    AxisConfig, CommandKind, Config, ControllerConfig, FrictionCompensationSection,
+};
 use super::learned::AxisLearned;
 use super::record::CycleRecord;
 use crate::canopen::od::{BuildError, Handle, PendingWrite};
@@ -13,6 +15,7 @@ use crate::device::objects::axis_intelligence::{
 };
 use crate::device::objects::{daemon_dictionary, index, AxisParameters, Command, DeviceParameters};
 use crate::param::Declared;
+use crate::param_key;
 
 /// One entry per configuration value the dictionary carries.
 pub fn axis_parameters(a: &AxisConfig) -> AxisParameters {
@@ -176,11 +179,16 @@ pub fn apply_write(config: &mut Config, w: &PendingWrite) -> Result<WriteEffect,
         }
         return Ok(WriteEffect::Rebuild { axis });
     }
+    // The entries named after the axis' own keys.
+    const OUTPUT_MIN: &str = param_key!(ControllerConfig, output_min);
+    const OUTPUT_MAX: &str = param_key!(ControllerConfig, output_max);
+    const SAFE_COMMAND: &str = param_key!(AxisConfig, safe_command);
+    const RATE_MAX: &str = param_key!(AxisConfig, setpoint_rate_max_m_per_s);
     match name {
-        "output_min" => a.controller.output_min = number,
-        "output_max" => a.controller.output_max = number,
-        "safe_command" => a.safe_command = number,
-        "setpoint_rate_max_m_per_s" => a.setpoint_rate_max_m_per_s = finite(number),
+        OUTPUT_MIN => a.controller.output_min = number,
+        OUTPUT_MAX => a.controller.output_max = number,
+        SAFE_COMMAND => a.safe_command = number,
+        RATE_MAX => a.setpoint_rate_max_m_per_s = finite(number),
         "enabled" => {
             if number == 0.0 {
                 a.friction_compensation = None;

@@ -8,6 +8,7 @@ pub mod cycle;
 pub mod dictionary;
 pub mod learned;
 pub mod node;
+pub mod node_sections;
 pub mod notify;
 pub mod profile_config;
 pub mod profile_dbc;

@@ -53,12 +53,18 @@ pub struct ParamSpec {
     /// bound: "not watched"). A write of an infinite value leaves it out again, and a
     /// configured value must be finite.
     pub absent: Option<f64>,
+    /// What the range asks for in the words of an error ("> 0", "a node id in 1..=127"), where
+    /// a section keeps the wording its users know; empty: worded from the range.
+    pub words: &'static str,
 }
 
 impl ParamSpec {
     /// What the declared range asks for, in words: "a number in [a, b]", "a finite number > 0",
     /// "a whole number >= 1"...
     fn range_text(&self) -> String {
+        if !self.words.is_empty() {
+            return self.words.to_string();
+        }
         let whole = if self.kind == Kind::Count {
             "whole "
         } else {
@@ -175,6 +181,7 @@ count_value!(u8, 8);
 count_value!(u32, 32);
 count_value!(u64, 32);
 count_value!(usize, 32);
+count_value!(i32, 32);
 
 impl ParamValue for bool {
     const KIND: Kind = Kind::Flag;
@@ -311,7 +318,9 @@ pub const FORCE_PER_COMMAND_UNIT: &str = "N/command";
 /// and whose fields each carry unit, range, access, a line of documentation and, where one
 /// makes sense, a default (a key without a default is required, unless its type is an
 /// `Option`: left out, it is `None`). `min` and `max` may be left out where the type bounds
-/// the value (a count's 0, a path); the side is then open.
+/// the value (a count's 0, a path); the side is then open. `words:` says in an error what the
+/// range asks for, where the wording derived from it ("a finite number > 0") would differ from
+/// the one a section's users already know ("> 0").
 ///
 /// ```ignore
 /// declare_section! {
@@ -337,6 +346,7 @@ macro_rules! declare_section {
                     $(max: $max:expr,)?
                     access: $access:ident,
                     doc: $doc:literal
+                    $(, words: $words:literal)?
                     $(, absent: $absent:expr)?
                     $(, default: $default:expr)? $(,)?
                 }
@@ -395,6 +405,7 @@ macro_rules! declare_section {
                         doc: $doc,
                         access: $crate::param::Access::$access,
                         absent: $crate::__declared_or!(None $(, Some($absent))?),
+                        words: $crate::__declared_or!("" $(, $words)?),
                     },
                 )*
             ];
@@ -509,8 +520,16 @@ macro_rules! __declared_or {
 /// cannot drift from the declaration. The key is the field's name: a declared section and the
 /// configuration's structs take their TOML keys from their fields without renaming.
 ///
-/// ```ignore
-/// let key: &str = param_key!(ObserverSection, mass_kg); // "mass_kg"
+/// ```
+/// use actuatord::supervise::ObserverSection;
+/// assert_eq!(actuatord::param_key!(ObserverSection, mass_kg), "mass_kg");
+/// ```
+///
+/// A key the section does not declare does not build:
+///
+/// ```compile_fail,E0609
+/// use actuatord::supervise::ObserverSection;
+/// let _ = actuatord::param_key!(ObserverSection, mass);
 /// ```
 #[macro_export]
 macro_rules! param_key {
@@ -521,4 +540,42 @@ macro_rules! param_key {
         }
         stringify!($field)
     }};
+}
+
+/// The names `<key>_0`, `<key>_1`, ... of the points of array key `$field` of section
+/// `$section` (a read-only view of a table in the dictionary), the key checked against the
+/// declaration like [`param_key!`]. `$field as $stem` names the points `<stem>_k` where the
+/// entries carry the unit themselves: the stem must begin the key (checked at compile time).
+#[macro_export]
+macro_rules! param_key_points {
+    ($section:ty, $field:ident, [$($i:literal),* $(,)?]) => {
+        $crate::param_key_points!($section, $field as $field, [$($i),*])
+    };
+    ($section:ty, $field:ident as $stem:ident, [$($i:literal),* $(,)?]) => {{
+        #[allow(dead_code)]
+        fn declared(section: &$section) {
+            let _ = &section.$field;
+        }
+        const _: () = assert!(
+            $crate::param::begins_with(stringify!($field), stringify!($stem)),
+            "the points' stem must begin the key"
+        );
+        [$(concat!(stringify!($stem), "_", $i)),*]
+    }};
+}
+
+/// `s` begins with `prefix` (usable in constants).
+pub const fn begins_with(s: &str, prefix: &str) -> bool {
+    let (s, p) = (s.as_bytes(), prefix.as_bytes());
+    if p.len() > s.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < p.len() {
+        if s[i] != p[i] {
+            return false;
+        }
+        i += 1;
+    }
+    true
 }

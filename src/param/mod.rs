@@ -76,5 +76,6 @@ pub fn cycles(time_s: f64, period_s: f64) -> u32 {
 mod declare;
 
 pub use declare::{
-    Access, Declared, Kind, ParamSpec, ParamValue, COMMAND_UNIT, FORCE_PER_COMMAND_UNIT,
+    begins_with, Access, Declared, Kind, ParamSpec, ParamValue, COMMAND_UNIT,
+    FORCE_PER_COMMAND_UNIT,
 };

@@ -83,9 +83,12 @@ impl Editor {
             // Written beside the controller's table: at the file's end it would belong to the
             // last `[[axis]]`, whichever this one is.
             s.set_position(
-                t.get("controller")
-                    .and_then(|c| c.as_table())
-                    .and_then(|c| c.position()),
+                t.get(crate::param_key!(
+                    crate::daemon::config::AxisConfig,
+                    controller
+                ))
+                .and_then(|c| c.as_table())
+                .and_then(|c| c.position()),
             );
             t.insert(section, Item::Table(s));
         }

@@ -11,7 +11,15 @@ use super::edit::{round_sig, Change, Editor, Kept};
 use super::fitted::Fitted;
 use super::TuneOptions;
 use crate::control::{effort_weight_for_pole, integrator_lq_gain};
-use crate::daemon::config::{CommandKind, Config};
+use crate::daemon::config::{AxisConfig, CommandKind, Config, ScheduleSection};
+use crate::param_key;
+
+/// The section tune writes and its drive-gain columns (down, up), named by the declarations.
+const SCHEDULE: &str = param_key!(AxisConfig, schedule);
+const COLUMNS: [&str; 2] = [
+    param_key!(ScheduleSection, drive_gain_down_m_per_s),
+    param_key!(ScheduleSection, drive_gain_up_m_per_s),
+];
 
 /// The fitted drive gains, down then up (the model's names).
 pub const DRIVE_GAINS: [&str; 2] = ["pneumatic.gain_down_m_per_s", "pneumatic.gain_up_m_per_s"];
@@ -183,7 +191,7 @@ pub fn tune_pneumatic(
             let k = law(i, p).ok_or_else(|| {
                 anyhow::anyhow!(
                     "{cfg_name}: [axis.schedule] has no {} column to take the shape from",
-                    ["drive_gain_down_m_per_s", "drive_gain_up_m_per_s"][i]
+                    COLUMNS[i]
                 )
             })?;
             col.push(round_sig(k, 4));
@@ -255,13 +263,10 @@ pub fn tune_pneumatic(
         .parse()
         .map_err(|e| anyhow::anyhow!("{cfg_name}: {e}"))?;
     let mut ed = Editor::new(doc, axis);
-    for (i, key) in ["drive_gain_down_m_per_s", "drive_gain_up_m_per_s"]
-        .iter()
-        .enumerate()
-    {
+    for (i, key) in COLUMNS.iter().enumerate() {
         let (lo, hi) = fitted.intervals[DRIVE_GAINS[i]];
         ed.set_list(
-            "schedule",
+            SCHEDULE,
             key,
             &columns[i],
             4,
@@ -273,13 +278,16 @@ pub fn tune_pneumatic(
         );
     }
     ed.set(
-        "schedule",
-        "effort_weight_m2",
+        SCHEDULE,
+        param_key!(ScheduleSection, effort_weight_m2),
         toml_edit::Value::from(round_sig(r, 4)),
         goal.clone(),
     );
     ed.keep(
-        "axis.schedule.nominal_supply_pa",
+        format!(
+            "axis.{SCHEDULE}.{}",
+            param_key!(ScheduleSection, nominal_supply_pa)
+        ),
         "the supply the gains are tuned at: the installation's choice",
     );
     if let Some(pa) = &a.pneumatic_adaptive {
@@ -291,7 +299,7 @@ pub fn tune_pneumatic(
             .filter(|k| !band.contains(k))
             .collect();
         ed.keep(
-            "axis.pneumatic_adaptive",
+            format!("axis.{}", param_key!(AxisConfig, pneumatic_adaptive)),
             if outside.is_empty() {
                 "its estimation starts from the tuned schedule; its plausible band holds every \
                  tuned gain"

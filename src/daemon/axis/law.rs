@@ -47,7 +47,11 @@ impl ControlLaw {
         let pneumatic = match cfg.pneumatic_config(period_s) {
             Ok(Some(c)) => Some(PneumaticAdaptive::new(&c).map_err(unvalidated)?),
             Ok(None) => None,
-            Err(_) => return Err(ControllerError::NotFinite("schedule")),
+            Err(_) => {
+                return Err(ControllerError::NotFinite(crate::param_key!(
+                    AxisConfig, schedule
+                )))
+            }
         };
         Ok(Self {
             controller,

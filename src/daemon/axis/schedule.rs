@@ -33,7 +33,11 @@ impl SupplySchedule {
                 s.variable().0,
                 GainSchedule::new(&points).map_err(unvalidated)?,
             )),
-            (Err(_), _) => return Err(ControllerError::NotFinite("schedule")),
+            (Err(_), _) => {
+                return Err(ControllerError::NotFinite(crate::param_key!(
+                    AxisConfig, schedule
+                )))
+            }
             _ => None,
         };
         let l = &cfg.limits;

@@ -18,7 +18,7 @@
 use super::daemon_objects::Command;
 use crate::canopen::od::EntrySpec;
 use crate::canopen::od::{ObjectDictionaryBuilder, Value};
-use crate::control::AdaptiveFrictionSection;
+use crate::control::{AdaptiveFrictionSection, ScheduleSection};
 use crate::param::{Access as ParamAccess, Declared, Kind, COMMAND_UNIT, FORCE_PER_COMMAND_UNIT};
 use crate::supervise::{ObserverSection, ParameterEstimationSection};
 
@@ -86,36 +86,20 @@ pub const BAND_NAMES: [&str; 4] = [
 const SUPPLY_NAMES: [&str; MAX_SCHEDULE_POINTS] = [
     "supply_0", "supply_1", "supply_2", "supply_3", "supply_4", "supply_5", "supply_6", "supply_7",
 ];
-const FACTOR_NAMES: [&str; MAX_SCHEDULE_POINTS] = [
-    "gain_factor_0",
-    "gain_factor_1",
-    "gain_factor_2",
-    "gain_factor_3",
-    "gain_factor_4",
-    "gain_factor_5",
-    "gain_factor_6",
-    "gain_factor_7",
-];
-const DOWN_NAMES: [&str; MAX_SCHEDULE_POINTS] = [
-    "drive_gain_down_0",
-    "drive_gain_down_1",
-    "drive_gain_down_2",
-    "drive_gain_down_3",
-    "drive_gain_down_4",
-    "drive_gain_down_5",
-    "drive_gain_down_6",
-    "drive_gain_down_7",
-];
-const UP_NAMES: [&str; MAX_SCHEDULE_POINTS] = [
-    "drive_gain_up_0",
-    "drive_gain_up_1",
-    "drive_gain_up_2",
-    "drive_gain_up_3",
-    "drive_gain_up_4",
-    "drive_gain_up_5",
-    "drive_gain_up_6",
-    "drive_gain_up_7",
-];
+/// The schedule's columns, point by point, named after their keys (the drive gains without
+/// their unit, which the entries carry).
+const FACTOR_NAMES: [&str; MAX_SCHEDULE_POINTS] =
+    crate::param_key_points!(ScheduleSection, gain_factor, [0, 1, 2, 3, 4, 5, 6, 7]);
+const DOWN_NAMES: [&str; MAX_SCHEDULE_POINTS] = crate::param_key_points!(
+    ScheduleSection,
+    drive_gain_down_m_per_s as drive_gain_down,
+    [0, 1, 2, 3, 4, 5, 6, 7]
+);
+const UP_NAMES: [&str; MAX_SCHEDULE_POINTS] = crate::param_key_points!(
+    ScheduleSection,
+    drive_gain_up_m_per_s as drive_gain_up,
+    [0, 1, 2, 3, 4, 5, 6, 7]
+);
 
 /// The entries of a declared section: its parameters writable in pre-operational, with the
 /// declared unit (the axis' command unit, or force per command unit, where declared so), range
