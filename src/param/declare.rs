@@ -124,12 +124,20 @@ pub trait ParamValue: Sized {
     }
     /// The values, to check against the range.
     fn each(&self, f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError>;
-    /// The value as one number; `None` for an array.
-    fn scalar(&self) -> Option<f64>;
-    /// Take `value` (already checked); false for an array.
-    fn assign(&mut self, value: f64) -> bool;
-    /// A value made from one number (already checked); `None` for what is not one number.
-    fn from_value(value: f64) -> Option<Self>;
+    /// The value as one number; `None` (the default) for what is not one number: an array,
+    /// a table, a path.
+    fn scalar(&self) -> Option<f64> {
+        None
+    }
+    /// Take `value` (already checked); false (the default) for what is not one number.
+    fn assign(&mut self, _value: f64) -> bool {
+        false
+    }
+    /// A value made from one number (already checked); `None` (the default) for what is not
+    /// one number.
+    fn from_value(_value: f64) -> Option<Self> {
+        None
+    }
 }
 
 impl ParamValue for f64 {
@@ -205,30 +213,12 @@ impl ParamValue for Vec<f64> {
     fn each(&self, f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
         self.iter().try_for_each(|v| f(*v))
     }
-    fn scalar(&self) -> Option<f64> {
-        None
-    }
-    fn assign(&mut self, _value: f64) -> bool {
-        false
-    }
-    fn from_value(_value: f64) -> Option<Self> {
-        None
-    }
 }
 
 impl ParamValue for std::path::PathBuf {
     const KIND: Kind = Kind::Path;
     fn each(&self, _f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
         Ok(())
-    }
-    fn scalar(&self) -> Option<f64> {
-        None
-    }
-    fn assign(&mut self, _value: f64) -> bool {
-        false
-    }
-    fn from_value(_value: f64) -> Option<Self> {
-        None
     }
 }
 
@@ -270,15 +260,6 @@ impl<const N: usize> ParamValue for [f64; N] {
     const KIND: Kind = Kind::Array;
     fn each(&self, f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
         self.iter().try_for_each(|v| f(*v))
-    }
-    fn scalar(&self) -> Option<f64> {
-        None
-    }
-    fn assign(&mut self, _value: f64) -> bool {
-        false
-    }
-    fn from_value(_value: f64) -> Option<Self> {
-        None
     }
 }
 

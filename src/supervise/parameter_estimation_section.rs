@@ -146,13 +146,4 @@ impl ParamValue for NominalParameters {
     fn each(&self, f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
         self.values().into_iter().try_for_each(f)
     }
-    fn scalar(&self) -> Option<f64> {
-        None
-    }
-    fn assign(&mut self, _value: f64) -> bool {
-        false
-    }
-    fn from_value(_value: f64) -> Option<Self> {
-        None
-    }
 }
