@@ -190,8 +190,14 @@ fn the_loop(
         tune_output,
         dir,
     };
+    // A gear's positions are angles.
+    let unit = if family == "motor_gear" {
+        "µrad"
+    } else {
+        "µm"
+    };
     println!(
-        "{family}: RMS following error {:.1} µm -> {:.1} µm ({:.1}x), settled error {:.1} µm -> {:.1} µm",
+        "{family}: RMS following error {:.1} {unit} -> {:.1} {unit} ({:.1}x), settled error {:.1} {unit} -> {:.1} {unit}",
         l.before_rms * 1e6,
         l.after_rms * 1e6,
         l.before_rms / l.after_rms,
@@ -415,7 +421,7 @@ fn motor_gear_tuned_from_its_fit_tracks_at_least_twice_as_well_and_hands_over_to
     let robust = Config::load(&config_path).expect("the robust configuration loads");
     let robust_rms = rms_error(&run(&robust, &root().join(plant)));
     println!(
-        "motor_gear: design robust on the fitted plant: RMS following error {:.1} µm",
+        "motor_gear: design robust on the fitted plant: RMS following error {:.1} µrad",
         robust_rms * 1e6
     );
     assert!(
