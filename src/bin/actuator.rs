@@ -497,6 +497,13 @@ fn run(args: Args) -> anyhow::Result<()> {
             robust_plant,
         } => {
             let fitted = actuatord::tune::Fitted::load(&model)?;
+            let text = std::fs::read_to_string(&config)
+                .map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", config.display()))?;
+            let options = actuatord::tune::TuneOptions {
+                goal,
+                max_spread,
+                axis,
+            };
             if fitted.model.spec.family == actuatord::physics::Family::Pneumatic {
                 anyhow::ensure!(
                     goal == actuatord::tune::Goal::default(),
@@ -510,13 +517,6 @@ fn run(args: Args) -> anyhow::Result<()> {
                      a pneumatic axis is tuned by its drive gains",
                     model.display()
                 );
-                let text = std::fs::read_to_string(&config)
-                    .map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", config.display()))?;
-                let options = actuatord::tune::TuneOptions {
-                    goal,
-                    max_spread,
-                    axis,
-                };
                 let tuning = actuatord::tune::tune_pneumatic(&fitted, &text, &config, &options)?;
                 print!("{tuning}");
                 std::fs::write(&out, &tuning.text)
@@ -529,13 +529,6 @@ fn run(args: Args) -> anyhow::Result<()> {
                 .as_ref()
                 .map(|_| actuatord::tune::robust_plant_file(&fitted))
                 .transpose()?;
-            let text = std::fs::read_to_string(&config)
-                .map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", config.display()))?;
-            let options = actuatord::tune::TuneOptions {
-                goal,
-                max_spread,
-                axis,
-            };
             let mut tuning = actuatord::tune::tune(&fitted, &text, &config, &options)?;
             if let Some(table) = &fault_table {
                 // The configuration names the table relative to its own folder.

@@ -21,6 +21,27 @@ pub struct Kept {
     pub reason: String,
 }
 
+/// The report's list of what changed (with where it came from) and what was kept (and why).
+pub fn write_changes(
+    f: &mut std::fmt::Formatter<'_>,
+    changes: &[Change],
+    kept: &[Kept],
+) -> std::fmt::Result {
+    writeln!(f, "changed:")?;
+    for c in changes {
+        writeln!(
+            f,
+            "  {:<50} {} -> {}\n  {:<50}   from {}",
+            c.key, c.before, c.after, "", c.origin
+        )?;
+    }
+    writeln!(f, "kept:")?;
+    for k in kept {
+        writeln!(f, "  {:<50} {}", k.key, k.reason)?;
+    }
+    Ok(())
+}
+
 /// The configuration being tuned: one axis' table of the document.
 pub struct Editor {
     pub doc: DocumentMut,

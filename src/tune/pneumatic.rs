@@ -389,19 +389,7 @@ impl fmt::Display for PneumaticTuning {
                 )?;
             }
         }
-        writeln!(f, "changed:")?;
-        for c in &self.changes {
-            writeln!(
-                f,
-                "  {:<50} {} -> {}\n  {:<50}   from {}",
-                c.key, c.before, c.after, "", c.origin
-            )?;
-        }
-        writeln!(f, "kept:")?;
-        for k in &self.kept {
-            writeln!(f, "  {:<50} {}", k.key, k.reason)?;
-        }
-        Ok(())
+        super::edit::write_changes(f, &self.changes, &self.kept)
     }
 }
 
