@@ -135,6 +135,26 @@ impl Capture {
         out
     }
 
+    /// Frames of `id` from the last one sent before the first frame matching `pred`, in order:
+    /// what was on the bus as that frame arrived, and everything after it. Counting SYNCs would
+    /// depend on whether the cycle's frame of `id` went out before or after it within its period.
+    fn from_last_before(&self, pred: impl Fn(&Frame) -> bool, id: u32) -> Vec<Frame> {
+        let at = self
+            .frames
+            .iter()
+            .position(|(_, f)| pred(f))
+            .unwrap_or(self.frames.len());
+        let start = self.frames[..at]
+            .iter()
+            .rposition(|(_, f)| f.id() == id)
+            .unwrap_or(at);
+        self.frames[start..]
+            .iter()
+            .filter(|(_, f)| f.id() == id)
+            .map(|(_, f)| *f)
+            .collect()
+    }
+
     /// The SYNC count when the first frame matching `pred` appeared.
     fn sync_count_at(&self, pred: impl Fn(&Frame) -> bool) -> Option<usize> {
         let mut seen = 0;
@@ -432,7 +452,7 @@ fn a_drive_fault_is_the_axis_fault_and_a_fault_reset_brings_the_drive_back_on_vc
         .sync_count_at(|f| f.id() == 0x301)
         .expect("the fault_reset frame");
     let mut words: Vec<u16> = cap
-        .after_sync(reset_sync.saturating_sub(1), 0x210)
+        .from_last_before(|f| f.id() == 0x301, 0x210)
         .iter()
         .map(|f| le_u16(f.data()))
         .collect();
