@@ -349,6 +349,11 @@ pub enum Target {
     QuickStop,
 }
 
+/// Cycles bit 7 stays high after its rising edge while the drive still shows "fault": a drive
+/// whose statusword answers a cycle or two late must not see the bit fall before it has reset.
+/// After that the bit drops for a cycle, so a fault that would not clear gets a fresh edge.
+const FAULT_RESET_HOLD_CYCLES: u8 = 4;
+
 /// The controlling side of the state machine: from each statusword, the controlword that moves
 /// the drive one transition toward the target; a fault is reset only when asked, with a rising
 /// edge of bit 7 after a cycle with bit 7 low.
@@ -357,6 +362,8 @@ pub struct PowerDriver {
     target: Target,
     reset_requested: bool,
     last_controlword: u16,
+    /// Cycles bit 7 is still held high after its edge.
+    reset_hold: u8,
     state: Option<State>,
 }
 
@@ -372,6 +379,7 @@ impl PowerDriver {
             target: Target::Disabled,
             reset_requested: false,
             last_controlword: command::DISABLE_VOLTAGE,
+            reset_hold: 0,
             state: None,
         }
     }
@@ -411,8 +419,14 @@ impl PowerDriver {
                 command::DISABLE_VOLTAGE
             }
             (Some(S::Fault), _) => {
-                // Bit 7 low for a cycle, then high: the edge the drive resets on.
-                if self.reset_requested && self.last_controlword & control::FAULT_RESET == 0 {
+                // Bit 7 low for a cycle, then high: the edge the drive resets on, held high
+                // while the drive's answer may still be on its way.
+                let high = self.last_controlword & control::FAULT_RESET != 0;
+                if self.reset_requested && !high {
+                    self.reset_hold = FAULT_RESET_HOLD_CYCLES;
+                    command::FAULT_RESET
+                } else if self.reset_requested && self.reset_hold > 0 {
+                    self.reset_hold -= 1;
                     command::FAULT_RESET
                 } else {
                     command::DISABLE_VOLTAGE
@@ -603,5 +617,62 @@ mod tests {
         driver.set_target(Target::Enabled);
         let states = run(&mut drive, &mut driver, 4);
         assert_eq!(states.last(), Some(&S::OperationEnabled));
+    }
+
+    /// A drive whose statusword reaches the driver `lag` cycles late (its TPDO went out before
+    /// it took the cycle's RPDO): bit 7 rises once and stays high until the drive has left
+    /// "fault", so the controlwords read low, the edge, then the way back to operation; a fault
+    /// that does not clear gets a fresh edge after the hold.
+    #[test]
+    fn a_late_answering_drive_sees_one_reset_edge_held_until_it_leaves_fault() {
+        for lag in 0..=3usize {
+            let mut drive = DriveStateMachine::new();
+            drive.initialised();
+            let mut driver = PowerDriver::new();
+            driver.set_target(Target::Enabled);
+            let mut seen = std::collections::VecDeque::new();
+            let mut words = vec![];
+            let mut step = |drive: &mut DriveStateMachine, driver: &mut PowerDriver| {
+                seen.push_back(drive.statusword());
+                if seen.len() > lag {
+                    if let Some(sw) = seen.pop_front() {
+                        driver.on_statusword(sw);
+                    }
+                }
+                let cw = driver.controlword();
+                drive.on_controlword(cw);
+                drive.tick();
+                cw
+            };
+            for _ in 0..(4 + 4 * lag) {
+                step(&mut drive, &mut driver);
+            }
+            assert_eq!(drive.state(), S::OperationEnabled, "lag {lag}");
+            drive.fault(0x4310);
+            for _ in 0..(3 + lag) {
+                words = vec![step(&mut drive, &mut driver)];
+            }
+            driver.request_fault_reset();
+            for _ in 0..(6 + 4 * lag) {
+                words.push(step(&mut drive, &mut driver));
+            }
+            words.dedup();
+            assert_eq!(
+                &words[..5],
+                &[0x00, 0x80, 0x06, 0x07, 0x0F],
+                "lag {lag}: {words:x?}"
+            );
+            assert_eq!(drive.state(), S::OperationEnabled, "lag {lag}");
+        }
+        // A fault that stays: after the hold, bit 7 falls for a cycle and rises again.
+        let mut driver = PowerDriver::new();
+        driver.set_target(Target::Enabled);
+        driver.on_statusword(0x0008);
+        driver.request_fault_reset();
+        let mut words: Vec<u16> = (0..2 * (FAULT_RESET_HOLD_CYCLES as usize + 2))
+            .map(|_| driver.controlword())
+            .collect();
+        words.dedup();
+        assert_eq!(&words[..4], &[0x80, 0x00, 0x80, 0x00], "{words:x?}");
     }
 }
