@@ -138,7 +138,7 @@ impl Capture {
     /// Frames of `id` from the last one sent before the first frame matching `pred`, in order:
     /// what was on the bus as that frame arrived, and everything after it. Counting SYNCs would
     /// depend on whether the cycle's frame of `id` went out before or after it within its period.
-    fn from_last_before(&self, pred: impl Fn(&Frame) -> bool, id: u32) -> Vec<Frame> {
+    fn since_last_before(&self, pred: impl Fn(&Frame) -> bool, id: u32) -> Vec<Frame> {
         let at = self
             .frames
             .iter()
@@ -452,7 +452,7 @@ fn a_drive_fault_is_the_axis_fault_and_a_fault_reset_brings_the_drive_back_on_vc
         .sync_count_at(|f| f.id() == 0x301)
         .expect("the fault_reset frame");
     let mut words: Vec<u16> = cap
-        .from_last_before(|f| f.id() == 0x301, 0x210)
+        .since_last_before(|f| f.id() == 0x301, 0x210)
         .iter()
         .map(|f| le_u16(f.data()))
         .collect();
