@@ -554,3 +554,165 @@ fn the_schedule_factors_follow_their_declared_ranges() {
         );
     }
 }
+
+/// `[axis.controller]`: the coefficient arrays are one entry per slot, named by the declaration,
+/// in its order, with its unit, range and documentation; a write reaches its slot, a zero written
+/// to the last one shortens the array (never below the one coefficient `q_per_m` needs), and the
+/// output limits are bounded by the command's range.
+#[test]
+fn the_controller_entries_and_sdo_writes_are_the_declaration() {
+    use actuatord::control::ControllerSection;
+    let mut config = shipped();
+    let mut od = dictionary::build(&config).expect("dictionary");
+    let at = |od: &ObjectDictionary, sub: u8| {
+        od.entry(
+            od.handle(ObjectId::new(index::axis(0, index::CONTROLLER), sub))
+                .expect("entry"),
+        )
+        .clone()
+    };
+    let mut sub = 1;
+    for p in ControllerSection::PARAMS {
+        if p.access == Access::Restart {
+            assert!(p.points.is_empty(), "{}", p.name);
+            continue;
+        }
+        let names: Vec<&str> = if p.points.is_empty() {
+            vec![p.name]
+        } else {
+            p.points.to_vec()
+        };
+        for name in names {
+            let e = at(&od, sub);
+            assert_eq!(e.name, name);
+            assert_eq!(e.description, p.doc, "{name}");
+            assert_eq!(e.access, OdAccess::ReadWritePreOperational, "{name}");
+            sub += 1;
+        }
+    }
+    assert_eq!(sub, 15, "6 + 6 coefficients and 2 limits");
+    assert_eq!(at(&od, 1).unit, "V/m");
+    assert_eq!(at(&od, 1).max.and_then(|v| v.as_f64()), Some(1e12));
+    assert_eq!(
+        at(&od, 4).default,
+        Value::Real64(0.0),
+        "q3: a slot not used"
+    );
+    assert_eq!(at(&od, 13).max.and_then(|v| v.as_f64()), Some(1000.0));
+
+    let write = |od: &mut ObjectDictionary, config: &mut Config, name: &str, v: f64| {
+        let h = entry_of(od, index::CONTROLLER, name).expect(name);
+        od.stage_value(h, Value::Real64(v), NmtState::PreOperational)
+            .expect("within range");
+        for w in od.take_pending_writes().collect::<Vec<_>>() {
+            dictionary::apply_write(config, &w).expect("applies");
+        }
+    };
+    write(&mut od, &mut config, "q4_per_m", 7.0);
+    assert_eq!(
+        config.axis[0].controller.q_per_m,
+        [2231.0, -4204.0, 2000.0, 0.0, 7.0]
+    );
+    write(&mut od, &mut config, "q4_per_m", 0.0);
+    assert_eq!(config.axis[0].controller.q_per_m, [2231.0, -4204.0, 2000.0]);
+    write(&mut od, &mut config, "p2", 0.0);
+    write(&mut od, &mut config, "p1", 0.0);
+    assert!(config.axis[0].controller.p.is_empty(), "p may be empty");
+    for name in ["q2_per_m", "q1_per_m", "q0_per_m"] {
+        write(&mut od, &mut config, name, 0.0);
+    }
+    assert_eq!(config.axis[0].controller.q_per_m, [0.0], "q keeps one");
+    write(&mut od, &mut config, "output_max", 12.0);
+    assert_eq!(config.axis[0].controller.output_max, 12.0);
+    let mut c = config.axis[0].controller.clone();
+    assert!(c.set("q6_per_m", 1.0).is_err(), "no such slot");
+    assert_eq!(
+        c.set("q1_per_m", 2e12).expect_err("beyond the range").name,
+        "q_per_m"
+    );
+}
+
+/// A choice key (`[axis.fault_reactions]`, `[bus] on_loss`): its declaration lists the values the
+/// file takes, a misspelled one is refused with that list, and each value reaches the fault
+/// machine or the node.
+#[test]
+fn choice_keys_list_their_values_and_refuse_others() {
+    use actuatord::daemon::config::{BusConfig, BusLossPolicy, FaultReactionsSection};
+    use actuatord::supervise::{Reaction, SupervisedFault};
+    for p in FaultReactionsSection::PARAMS {
+        assert_eq!(p.kind, Kind::Choice, "{}", p.name);
+        assert_eq!(p.choices, ["warning", "maintenance_requested", "fail_safe"]);
+        assert!(p.optional && p.access == Access::Restart, "{}", p.name);
+    }
+    let spec = BusConfig::spec("on_loss").expect("declared");
+    assert_eq!(spec.choices_text(), "`safe_state` or `continue`");
+    let err = toml::from_str::<FaultReactionsSection>("current_gain = \"shrug\"")
+        .expect_err("not a reaction");
+    assert!(
+        err.to_string()
+            .contains("expected one of `warning`, `maintenance_requested`, `fail_safe`"),
+        "{err}"
+    );
+    let r: FaultReactionsSection =
+        toml::from_str("current_gain = \"warning\"\nsensor_offset = \"fail_safe\"").expect("ok");
+    let machine = r.machine_config();
+    let reaction = |f| {
+        machine
+            .policies
+            .iter()
+            .find(|p| p.fault == f)
+            .map(|p| p.reaction)
+    };
+    assert_eq!(
+        reaction(SupervisedFault::CurrentGain),
+        Some(Reaction::Warning)
+    );
+    assert_eq!(
+        reaction(SupervisedFault::SensorOffset),
+        Some(Reaction::FailSafe)
+    );
+    // Left out: the fault machine's default.
+    assert_eq!(
+        reaction(SupervisedFault::SpringPretension),
+        Some(Reaction::Maintenance)
+    );
+    let bus: BusConfig = toml::from_str("iface = \"can1\"\non_loss = \"continue\"").expect("ok");
+    assert_eq!(bus.on_loss, BusLossPolicy::Continue);
+    assert_eq!(bus.on_loss.name(), "continue");
+    assert_eq!(
+        (bus.bitrate_bps, bus.max_load),
+        (500_000, 0.7),
+        "declared defaults"
+    );
+}
+
+/// The schedule's read-only view: one entry per point of each column the axis has, named by the
+/// declaration, read-only, with the declared unit.
+#[test]
+fn the_schedule_view_is_the_declaration() {
+    use actuatord::control::ScheduleSection;
+    use actuatord::device::objects::axis_intelligence::SCHEDULE;
+    let config = shipped();
+    let s = config.axis[0]
+        .schedule
+        .clone()
+        .expect("the solenoid schedules");
+    let supply = s.supply_voltage_v.clone().expect("on the supply voltage");
+    let od = dictionary::build(&config).expect("dictionary");
+    let points = entry_of(&od, SCHEDULE, "points").expect("count");
+    assert_eq!(od.value(points), Value::Unsigned8(supply.len() as u8));
+    let mut shown = 0;
+    for p in ScheduleSection::PARAMS {
+        for (k, name) in p.points.iter().enumerate() {
+            let Some(v) = s.point(p.name, k) else {
+                continue;
+            };
+            let e = od.entry(entry_of(&od, SCHEDULE, name).expect(name));
+            assert_eq!(e.access, OdAccess::ReadOnly, "{name}");
+            assert_eq!(e.unit, p.unit, "{name}");
+            assert_eq!(e.default, Value::Real64(v), "{name}");
+            shown += 1;
+        }
+    }
+    assert_eq!(shown, 2 * supply.len(), "the supply and the gain factor");
+}

@@ -10,7 +10,7 @@ use crate::param::Declared;
 use crate::param_key;
 use crate::supervise::{
     DisturbanceObserver, EstimatorSupervisorConfig, FaultMachineConfig, ObserverConfig,
-    ParameterEstimator, Reaction, SupervisedFault,
+    ParameterEstimator,
 };
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -76,61 +76,11 @@ pub struct Config {
     pub axis: Vec<AxisConfig>,
 }
 
-/// `[node]`, `[cycle]`, `[record]` and `[state]`, declared with their ranges and defaults.
-pub use super::node_sections::{CycleConfig, NodeConfig, RecordConfig, StateConfig};
-
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct BusConfig {
-    /// SocketCAN interface, e.g. "can0" or "vcan0".
-    pub iface: String,
-    /// Bit rate of the bus, for the load check (vcan has none; it is checked all the same).
-    #[serde(default = "default_bitrate")]
-    pub bitrate_bps: u32,
-    /// Largest share of the bit rate the periodic traffic may take; above it the daemon refuses
-    /// to start.
-    #[serde(default = "default_max_load")]
-    pub max_load: f64,
-    /// What the axes do when the bus is lost (interface down or gone, bus-off).
-    #[serde(default)]
-    pub on_loss: BusLossPolicy,
-    /// At start-up, how long to wait for the interface to exist and be up before giving up.
-    #[serde(default = "default_startup_wait_s")]
-    pub startup_wait_s: f64,
-}
-
-/// The axes' policy when the bus is lost, after CiA 301's error behaviour (object 1029h).
-#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum BusLossPolicy {
-    /// The controller leaves operational: when the bus is back every axis gets its safe
-    /// command, and control resumes only on an NMT start (or reset) from the operator.
-    #[default]
-    SafeState,
-    /// Control resumes by itself with the first sensor frames after the bus is back.
-    Continue,
-}
-
-impl BusLossPolicy {
-    pub fn name(self) -> &'static str {
-        match self {
-            BusLossPolicy::SafeState => "safe_state",
-            BusLossPolicy::Continue => "continue",
-        }
-    }
-}
-
-fn default_startup_wait_s() -> f64 {
-    30.0
-}
-
-fn default_bitrate() -> u32 {
-    500_000
-}
-
-fn default_max_load() -> f64 {
-    0.7
-}
+/// `[bus]`, `[node]`, `[cycle]`, `[record]` and `[state]`, declared with their ranges and
+/// defaults.
+pub use super::node_sections::{
+    BusConfig, BusLossPolicy, CycleConfig, NodeConfig, RecordConfig, StateConfig,
+};
 
 /// What the actuator command means.
 #[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
@@ -163,7 +113,7 @@ pub struct AxisConfig {
     /// Command sent while a fault is latched (V or duty, as `command`); the spring-return rest for a solenoid.
     #[serde(default)]
     pub safe_command: f64,
-    pub controller: ControllerConfig,
+    pub controller: ControllerSection,
     pub friction_compensation: Option<FrictionCompensationSection>,
     /// Adaptive friction compensation with a reference model; replaces the feed-forward of
     /// `[axis.friction_compensation]`, whose values (when present) are its starting point.
@@ -204,23 +154,9 @@ fn yes() -> bool {
     true
 }
 
-/// The general discrete controller `u(k) = -Σ p_i u(k-i) + Σ q_j e(k-j)`, e in m, u in the command unit.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ControllerConfig {
-    /// Numerator coefficients q_0..q_m, command unit per m of error.
-    #[serde(default)]
-    pub q_per_m: Vec<f64>,
-    /// A state-space controller file (`actuator design robust`) instead of `q_per_m`/`p`;
-    /// relative paths are taken from the configuration file's folder.
-    pub state_space_file: Option<std::path::PathBuf>,
-    /// Denominator coefficients p_1..p_n (without the leading 1).
-    #[serde(default)]
-    pub p: Vec<f64>,
-    /// Output limits in the command unit.
-    pub output_min: f64,
-    pub output_max: f64,
-}
+/// `[axis.controller]`, declared where the discrete controller lives; its rules between keys
+/// are checked in [`Config::validate`].
+pub use crate::control::ControllerSection;
 
 /// `[axis.friction_compensation]`, declared with its ranges and access where the feed-forward
 /// lives.
@@ -251,31 +187,8 @@ pub use crate::supervise::ObserverSection;
 /// lives, and its nominal parameters.
 pub use crate::supervise::{NominalParameters, ParameterEstimationSection};
 
-/// A reaction to a latched supervised fault, in increasing severity.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum ReactionName {
-    Warning,
-    MaintenanceRequested,
-    FailSafe,
-}
-
-/// `[axis.fault_reactions]`: one reaction per supervised fault; unnamed faults keep the default
-/// (diagnosed F1-F3, F5 sensor offset and the observer's friction rise: maintenance_requested;
-/// F4 current gain and
-/// limit violations: fail_safe; an implausible estimator: warning).
-#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct FaultReactionsSection {
-    pub spring_pretension: Option<ReactionName>,
-    pub spring_stiffness: Option<ReactionName>,
-    pub friction_increase: Option<ReactionName>,
-    pub current_gain: Option<ReactionName>,
-    pub observer_friction: Option<ReactionName>,
-    pub estimator_implausible: Option<ReactionName>,
-    pub limit_violation: Option<ReactionName>,
-    pub sensor_offset: Option<ReactionName>,
-}
+/// `[axis.fault_reactions]`, declared where the fault machine lives, with its values.
+pub use crate::supervise::{FaultReactionsSection, ReactionName};
 
 /// `[axis.limits]`, declared with its ranges and access where the supervision lives.
 pub use crate::supervise::LimitsSection;
@@ -356,28 +269,11 @@ impl Config {
                 "must name a CAN interface".into(),
             ));
         }
-        if self.bus.bitrate_bps == 0 {
-            return Err(bad(
-                &node_key!(bus: BusConfig, bitrate_bps),
-                "must be > 0".into(),
-            ));
-        }
-        if !(self.bus.startup_wait_s.is_finite() && self.bus.startup_wait_s >= 0.0) {
-            return Err(bad(
-                &node_key!(bus: BusConfig, startup_wait_s),
-                format!("must be >= 0 s, got {}", self.bus.startup_wait_s),
-            ));
-        }
-        if !(self.bus.max_load > 0.0 && self.bus.max_load <= 1.0) {
-            return Err(bad(
-                &node_key!(bus: BusConfig, max_load),
-                format!("must be in (0, 1], got {}", self.bus.max_load),
-            ));
-        }
         // The node-wide sections: the ranges declared with them.
         let section = |name: &'static str| {
             move |e: ParamError| bad(&format!("[{name}] {}", e.name), e.reason)
         };
+        self.bus.check().map_err(section(param_key!(Config, bus)))?;
         self.node
             .check()
             .map_err(section(param_key!(Config, node)))?;
@@ -423,19 +319,23 @@ impl Config {
             if let Some(f) = &c.state_space_file {
                 if !c.q_per_m.is_empty() || !c.p.is_empty() {
                     return Err(bad(
-                        &at(&axis_key!(controller: ControllerConfig, state_space_file)),
-                        "replaces q_per_m and p: give one or the other".into(),
+                        &at(&axis_key!(controller: ControllerSection, state_space_file)),
+                        format!(
+                            "replaces {} and {}: give one or the other",
+                            param_key!(ControllerSection, q_per_m),
+                            param_key!(ControllerSection, p)
+                        ),
                     ));
                 }
                 let ss = crate::control::robust::StateSpaceController::load(f).map_err(|e| {
                     bad(
-                        &at(&axis_key!(controller: ControllerConfig, state_space_file)),
+                        &at(&axis_key!(controller: ControllerSection, state_space_file)),
                         format!("cannot be used: {e}"),
                     )
                 })?;
                 if (ss.period_s() - self.cycle.period_s).abs() > 1e-9 {
                     return Err(bad(
-                        &at(&axis_key!(controller: ControllerConfig, state_space_file)),
+                        &at(&axis_key!(controller: ControllerSection, state_space_file)),
                         format!(
                             "{} was designed for a {} s period, the cycle runs at {} s",
                             f.display(),
@@ -446,7 +346,7 @@ impl Config {
                 }
             } else if c.q_per_m.is_empty() || c.q_per_m.len() > crate::control::MAX_ORDER {
                 return Err(bad(
-                    &at(&axis_key!(controller: ControllerConfig, q_per_m)),
+                    &at(&axis_key!(controller: ControllerSection, q_per_m)),
                     format!(
                         "needs 1 to {} coefficients, got {}",
                         crate::control::MAX_ORDER,
@@ -456,7 +356,7 @@ impl Config {
             }
             if c.p.len() > crate::control::MAX_ORDER {
                 return Err(bad(
-                    &at(&axis_key!(controller: ControllerConfig, p)),
+                    &at(&axis_key!(controller: ControllerSection, p)),
                     format!("takes at most {} coefficients", crate::control::MAX_ORDER),
                 ));
             }
@@ -466,12 +366,21 @@ impl Config {
                     "coefficients must be finite".into(),
                 ));
             }
+            // Whatever the rules above leave: the ranges declared with the section.
+            c.check().map_err(|e| {
+                bad(
+                    &at(&format!("{}.{}", axis_key!(controller), e.name)),
+                    e.reason,
+                )
+            })?;
             if c.output_min >= c.output_max {
                 return Err(bad(
-                    &at(&axis_key!(controller: ControllerConfig, output_max)),
+                    &at(&axis_key!(controller: ControllerSection, output_max)),
                     format!(
-                        "must be > output_min ({}), got {}",
-                        c.output_min, c.output_max
+                        "must be > {} ({}), got {}",
+                        param_key!(ControllerSection, output_min),
+                        c.output_min,
+                        c.output_max
                     ),
                 ));
             }
@@ -488,8 +397,8 @@ impl Config {
                 return Err(bad(
                     &at(&format!(
                         "{}/{}",
-                        axis_key!(controller: ControllerConfig, output_min),
-                        param_key!(ControllerConfig, output_max)
+                        axis_key!(controller: ControllerSection, output_min),
+                        param_key!(ControllerSection, output_max)
                     )),
                     "must lie within [-1, 1] for command = \"duty\"".into(),
                 ));
@@ -842,30 +751,9 @@ impl AxisConfig {
 
     /// The fault machine's policies: the defaults with the configured reactions.
     pub fn fault_machine_config(&self) -> FaultMachineConfig {
-        let mut config = FaultMachineConfig::default();
-        let Some(r) = &self.fault_reactions else {
-            return config;
-        };
-        for policy in config.policies.iter_mut() {
-            let named = match policy.fault {
-                SupervisedFault::SpringPretension => r.spring_pretension,
-                SupervisedFault::SpringStiffness => r.spring_stiffness,
-                SupervisedFault::FrictionIncrease => r.friction_increase,
-                SupervisedFault::CurrentGain => r.current_gain,
-                SupervisedFault::ObserverFriction => r.observer_friction,
-                SupervisedFault::EstimatorImplausible => r.estimator_implausible,
-                SupervisedFault::LimitViolation => r.limit_violation,
-                SupervisedFault::SensorOffset => r.sensor_offset,
-            };
-            if let Some(n) = named {
-                policy.reaction = match n {
-                    ReactionName::Warning => Reaction::Warning,
-                    ReactionName::MaintenanceRequested => Reaction::Maintenance,
-                    ReactionName::FailSafe => Reaction::FailSafe,
-                };
-            }
-        }
-        config
+        self.fault_reactions
+            .as_ref()
+            .map_or_else(FaultMachineConfig::default, |r| r.machine_config())
     }
 
     /// Build every configured algorithm once, so a bad value is reported with its key here and

@@ -12,6 +12,8 @@ pub enum Access {
     Restart,
     /// Over SDO while the node is pre-operational, or by a reload.
     PreOperational,
+    /// By a reload; the dictionary shows it read-only (a table's points).
+    ReadOnly,
 }
 
 /// The value type of a declared parameter, as the dictionary carries it.
@@ -29,6 +31,10 @@ pub enum Kind {
     Path,
     /// A table of its own, checked by its own type (not in the dictionary).
     Table,
+    /// One of a few named values (not in the dictionary); see [`ParamSpec::choices`].
+    Choice,
+    /// Text (not in the dictionary).
+    Text,
 }
 
 /// What is declared about one parameter.
@@ -56,6 +62,17 @@ pub struct ParamSpec {
     /// What the range asks for in the words of an error ("> 0", "a node id in 1..=127"), where
     /// a section keeps the wording its users know; empty: worded from the range.
     pub words: &'static str,
+    /// An array shown in the dictionary one entry per point, with these names (`q0_per_m`,
+    /// `supply_0`...); empty: an array is not in the dictionary.
+    pub points: &'static [&'static str],
+    /// Points a write of zero to the last one keeps: trailing zeros are dropped down to this
+    /// length.
+    pub kept: usize,
+    /// The dictionary bounds the value by the axis' command range (±1 for a duty, ±1000
+    /// otherwise) rather than by `min` and `max`.
+    pub command_bound: bool,
+    /// The values a [`Kind::Choice`] key takes, as written in the file; empty otherwise.
+    pub choices: &'static [&'static str],
 }
 
 impl ParamSpec {
@@ -85,6 +102,21 @@ impl ParamSpec {
             format!("{what} <= {}", self.max)
         } else {
             what
+        }
+    }
+
+    /// Which point of the array `name` is, if it is one of this key's points.
+    pub fn point(&self, name: &str) -> Option<usize> {
+        self.points.iter().position(|p| *p == name)
+    }
+
+    /// The values of a choice, as a documentation or an error lists them: "`a`, `b` or `c`".
+    pub fn choices_text(&self) -> String {
+        let quoted: Vec<String> = self.choices.iter().map(|c| format!("`{c}`")).collect();
+        match quoted.split_last() {
+            Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+            Some((last, _)) => last.clone(),
+            None => String::new(),
         }
     }
 
@@ -137,6 +169,18 @@ pub trait ParamValue: Sized {
     /// one number.
     fn from_value(_value: f64) -> Option<Self> {
         None
+    }
+    /// The values a choice takes, as written in the file; empty (the default) for the rest.
+    const CHOICES: &'static [&'static str] = &[];
+    /// Point `k` of an array, `None` past its end (and, the default, for what is not an array).
+    fn point(&self, _k: usize) -> Option<f64> {
+        None
+    }
+    /// Set point `k` of an array to `value` (already checked), growing it with zeros; trailing
+    /// zeros are then dropped down to `kept` points. False (the default) for what is not an
+    /// array that can grow.
+    fn set_point(&mut self, _k: usize, _value: f64, _kept: usize) -> bool {
+        false
     }
 }
 
@@ -213,6 +257,26 @@ impl ParamValue for Vec<f64> {
     fn each(&self, f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
         self.iter().try_for_each(|v| f(*v))
     }
+    fn point(&self, k: usize) -> Option<f64> {
+        self.get(k).copied()
+    }
+    fn set_point(&mut self, k: usize, value: f64, kept: usize) -> bool {
+        if self.len() <= k {
+            self.resize(k + 1, 0.0);
+        }
+        self[k] = value;
+        while self.len() > kept && self.last() == Some(&0.0) {
+            self.pop();
+        }
+        true
+    }
+}
+
+impl ParamValue for String {
+    const KIND: Kind = Kind::Text;
+    fn each(&self, _f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
+        Ok(())
+    }
 }
 
 impl ParamValue for std::path::PathBuf {
@@ -227,6 +291,10 @@ impl<T: ParamValue> ParamValue for Option<T> {
     const KIND: Kind = T::KIND;
     const BITS: u8 = T::BITS;
     const OPTIONAL: bool = true;
+    const CHOICES: &'static [&'static str] = T::CHOICES;
+    fn point(&self, k: usize) -> Option<f64> {
+        self.as_ref().and_then(|v| v.point(k))
+    }
     fn absent() -> Option<Self> {
         Some(None)
     }
@@ -271,7 +339,11 @@ pub trait Declared {
     /// The value of the scalar parameter `name`.
     fn get(&self, name: &str) -> Option<f64>;
 
-    /// Set the scalar parameter `name` to `value`, checked against its declaration.
+    /// Point `k` of the array `key` (`None` past its end, or when the key is left out).
+    fn point(&self, key: &str, k: usize) -> Option<f64>;
+
+    /// Set the scalar parameter `name`, or the point `name` of an array, to `value`, checked
+    /// against its declaration.
     fn set(&mut self, name: &str, value: f64) -> Result<(), ParamError>;
 
     /// Every value within its declared range; the error names the first that is not.
@@ -289,6 +361,10 @@ pub trait Declared {
 /// The unit a declared parameter gives as `COMMAND_UNIT` is the axis' command unit (V, duty, N,
 /// ...), known only when the dictionary is built for an axis.
 pub const COMMAND_UNIT: &str = "command";
+
+/// The unit a declared parameter gives as `COMMAND_PER_M_UNIT` is the axis' command unit per m
+/// (V/m, 1/m, ...), known only when the dictionary is built for an axis.
+pub const COMMAND_PER_M_UNIT: &str = "command/m";
 
 /// The unit a declared parameter gives as `FORCE_PER_COMMAND_UNIT` is the drive's force per
 /// command unit (N/V, N per unit duty, ...), known only when the dictionary is built for an
@@ -328,6 +404,9 @@ macro_rules! declare_section {
                     access: $access:ident,
                     doc: $doc:literal
                     $(, words: $words:literal)?
+                    $(, points: [$($point:ident),* $(,)?])?
+                    $(, kept: $kept:expr)?
+                    $(, command_bound: $command_bound:expr)?
                     $(, absent: $absent:expr)?
                     $(, default: $default:expr)? $(,)?
                 }
@@ -387,6 +466,10 @@ macro_rules! declare_section {
                         access: $crate::param::Access::$access,
                         absent: $crate::__declared_or!(None $(, Some($absent))?),
                         words: $crate::__declared_or!("" $(, $words)?),
+                        points: $crate::__declared_or!(&[] $(, &[$(stringify!($point)),*])?),
+                        kept: $crate::__declared_or!(0 $(, $kept)?),
+                        command_bound: $crate::__declared_or!(false $(, $command_bound)?),
+                        choices: <$ty as $crate::param::ParamValue>::CHOICES,
                     },
                 )*
             ];
@@ -399,10 +482,40 @@ macro_rules! declare_section {
                 value.or_else(|| <Self as $crate::param::Declared>::spec(name)?.absent)
             }
 
+            fn point(&self, key: &str, k: usize) -> Option<f64> {
+                match key {
+                    $( stringify!($field) => $crate::param::ParamValue::point(&self.$field, k), )*
+                    _ => None,
+                }
+            }
+
             fn set(&mut self, name: &str, value: f64) -> Result<(), $crate::param::ParamError> {
-                let spec = <Self as $crate::param::Declared>::spec(name).ok_or_else(|| {
-                    $crate::param::ParamError::new("parameter", format!("no parameter {name}"))
-                })?;
+                let Some(spec) = <Self as $crate::param::Declared>::spec(name) else {
+                    // A point of an array: checked against the array's range.
+                    let mut i = 0;
+                    $(
+                        let spec = &<Self as $crate::param::Declared>::PARAMS[i];
+                        if let Some(k) = spec.point(name) {
+                            spec.check(value)?;
+                            return if $crate::param::ParamValue::set_point(
+                                &mut self.$field, k, value, spec.kept,
+                            ) {
+                                Ok(())
+                            } else {
+                                Err($crate::param::ParamError::new(
+                                    spec.name,
+                                    format!("cannot take {name}"),
+                                ))
+                            };
+                        }
+                        i += 1;
+                    )*
+                    let _ = i;
+                    return Err($crate::param::ParamError::new(
+                        "parameter",
+                        format!("no parameter {name}"),
+                    ));
+                };
                 if spec.absent.is_some() && value.is_infinite() {
                     // An infinite bound: "not watched", the key left out.
                     let cleared = match name {
