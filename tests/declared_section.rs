@@ -716,3 +716,35 @@ fn the_schedule_view_is_the_declaration() {
     }
     assert_eq!(shown, 2 * supply.len(), "the supply and the gain factor");
 }
+
+/// The axis' own keys: the TOML keys are the declared fields, and their ranges are the rules
+/// the configuration applies, with the wording its users know.
+#[test]
+fn the_axis_own_keys_are_declared() {
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("config/solenoid.toml"))
+            .expect("shipped config");
+    let id = AxisConfig::spec("actuator_node_id").expect("declared");
+    assert_eq!((id.min, id.max), (1.0, 127.0));
+    let bad = text.replace("actuator_node_id = 16", "actuator_node_id = 0");
+    let err = Config::from_toml(&bad, Path::new("x.toml")).expect_err("node id 0");
+    assert_eq!(
+        err.to_string(),
+        "x.toml: [[axis]] #1 (solenoid) actuator_node_id must be a node id in 1..=127, got 0"
+    );
+    let bad = text.replace(
+        "actuator_node_id = 16",
+        "actuator_node_id = 16\nsetpoint_rate_max_m_per_s = -0.5",
+    );
+    let err = Config::from_toml(&bad, Path::new("x.toml")).expect_err("a negative rate");
+    assert!(
+        err.to_string()
+            .ends_with("setpoint_rate_max_m_per_s must be > 0, got -0.5"),
+        "{err}"
+    );
+    let spec = AxisConfig::spec("command").expect("declared");
+    assert_eq!(spec.choices, ["voltage", "duty", "torque", "velocity"]);
+    let a = &shipped().axis[0];
+    assert!(a.start_node, "declared default");
+    assert!(!a.present("setpoint_rate_max_m_per_s"));
+}

@@ -82,77 +82,8 @@ pub use super::node_sections::{
     BusConfig, BusLossPolicy, CycleConfig, NodeConfig, RecordConfig, StateConfig,
 };
 
-/// What the actuator command means.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum CommandKind {
-    /// Terminal voltage, V (solenoid, motor).
-    Voltage,
-    /// Signed valve duty, -1..1 (pneumatic).
-    Duty,
-    /// Torque in N·m, force in N on a linear axis: a CiA 402 drive's target torque (CST).
-    Torque,
-    /// Velocity in m/s (rad/s): a CiA 402 drive's target velocity (CSV).
-    Velocity,
-}
-
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct AxisConfig {
-    pub name: String,
-    /// Node id of the axis' actuator node (real or simulated), 1..=127.
-    pub actuator_node_id: u8,
-    pub command: CommandKind,
-    /// Send NMT start to the actuator node at start-up.
-    #[serde(default = "yes")]
-    pub start_node: bool,
-    /// Setpoint before any arrives, m.
-    pub initial_setpoint_m: f64,
-    /// Rate limit of the reference the loop tracks (m/s, rad/s on a rotary axis); absent: steps.
-    pub setpoint_rate_max_m_per_s: Option<f64>,
-    /// Command sent while a fault is latched (V or duty, as `command`); the spring-return rest for a solenoid.
-    #[serde(default)]
-    pub safe_command: f64,
-    pub controller: ControllerSection,
-    pub friction_compensation: Option<FrictionCompensationSection>,
-    /// Adaptive friction compensation with a reference model; replaces the feed-forward of
-    /// `[axis.friction_compensation]`, whose values (when present) are its starting point.
-    pub adaptive_friction: Option<AdaptiveFrictionSection>,
-    /// A sine added to the command against stiction.
-    pub dither: Option<DitherSection>,
-    /// Inverse of the static force characteristic applied to the controller output.
-    pub correction: Option<CorrectionSection>,
-    /// Controller parameters as functions of the measured supply voltage or pressure.
-    pub schedule: Option<ScheduleSection>,
-    /// Online estimation of the drive gains of a duty axis and redesign of its P gains.
-    pub pneumatic_adaptive: Option<PneumaticAdaptiveSection>,
-    /// Disturbance observer with learned x4 bands (fault detection by state estimation).
-    pub observer: Option<ObserverSection>,
-    /// Parameter estimation, symptoms and diagnosis with the fault-symptom table.
-    pub parameter_estimation: Option<ParameterEstimationSection>,
-    /// Reaction per supervised fault; absent: the defaults of [`FaultReactionsSection`].
-    pub fault_reactions: Option<FaultReactionsSection>,
-    /// Adapted friction compensation stored by operating point (needs `[axis.adaptive_friction]`).
-    pub learned_table: Option<LearnedTableSection>,
-    pub limits: LimitsSection,
-    /// A setpoint schedule; setpoint frames on the bus override it until its next entry.
-    #[serde(default)]
-    pub setpoints: Vec<SetpointStep>,
-    /// What the actuator node speaks: "actuatord" (default), "cia402" or "cia401".
-    #[serde(default)]
-    pub profile: super::profile_config::ProfileKind,
-    /// A CiA 402 drive's units (`profile = "cia402"`).
-    pub cia402: Option<super::profile_config::Cia402Section>,
-    /// A CiA 401 module's channels and scaling (`profile = "cia401"`).
-    pub cia401: Option<super::profile_config::Cia401Section>,
-    /// The node's EDS: its default PDO mapping is used (and checked on the node) instead of
-    /// configuring one over SDO; relative to the configuration file.
-    pub eds: Option<std::path::PathBuf>,
-}
-
-fn yes() -> bool {
-    true
-}
+/// `[[axis]]`'s own keys, declared with their ranges and defaults, and what the command means.
+pub use super::axis_section::{AxisConfig, CommandKind};
 
 /// `[axis.controller]`, declared where the discrete controller lives; its rules between keys
 /// are checked in [`Config::validate`].
@@ -249,20 +180,6 @@ impl Config {
             key: key.to_string(),
             rule,
         };
-        let positive = |key: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(bad(key, format!("must be > 0, got {v}")))
-            }
-        };
-        let node_id = |key: &str, v: u8| {
-            if (1..=127).contains(&v) {
-                Ok(())
-            } else {
-                Err(bad(key, format!("must be a node id in 1..=127, got {v}")))
-            }
-        };
         if self.bus.iface.is_empty() {
             return Err(bad(
                 &node_key!(bus: BusConfig, iface),
@@ -303,10 +220,8 @@ impl Config {
         let mut seen = vec![self.node.node_id];
         for (i, axis) in self.axis.iter().enumerate() {
             let at = |key: &str| format!("[[axis]] #{} ({}) {key}", i + 1, axis.name);
-            node_id(
-                &at(param_key!(AxisConfig, actuator_node_id)),
-                axis.actuator_node_id,
-            )?;
+            // The axis' own keys: the ranges declared with them.
+            axis.check().map_err(|e| bad(&at(e.name), e.reason))?;
             if seen.contains(&axis.actuator_node_id) {
                 return Err(bad(
                     &at(param_key!(AxisConfig, actuator_node_id)),
@@ -413,9 +328,6 @@ impl Config {
             }
             axis.check_intelligence(self.cycle.period_s)
                 .map_err(|(key, rule)| bad(&at(&key), rule))?;
-            if let Some(v) = axis.setpoint_rate_max_m_per_s {
-                positive(&at(param_key!(AxisConfig, setpoint_rate_max_m_per_s)), v)?;
-            }
             let l = &axis.limits;
             l.check()
                 .map_err(|e| bad(&at(&format!("{}.{}", axis_key!(limits), e.name)), e.reason))?;

@@ -8,28 +8,17 @@ use crate::device::profile::cia402::{self, Mode};
 use crate::device::profile::mapping::{Direction, MappedObject, Pdo};
 use serde::Deserialize;
 
-/// What the axis' actuator node speaks.
-#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum ProfileKind {
-    /// Our own frames (`actuator sim`, or firmware written to `dbc/actuatord.dbc`).
-    #[default]
-    Actuatord,
-    /// A CiA 402 servo drive in cyclic synchronous torque (`command = "torque"`) or velocity
-    /// (`command = "velocity"`) mode.
-    Cia402,
-    /// A CiA 401 I/O module: analog inputs for position, current and supply, an analog output
-    /// for the command.
-    Cia401,
-}
-
-impl ProfileKind {
-    pub fn name(self) -> &'static str {
-        match self {
-            ProfileKind::Actuatord => "actuatord",
-            ProfileKind::Cia402 => "cia402",
-            ProfileKind::Cia401 => "cia401",
-        }
+crate::declare_choice! {
+    /// What the axis' actuator node speaks.
+    pub enum ProfileKind {
+        /// Our own frames (`actuator sim`, or firmware written to `dbc/actuatord.dbc`).
+        Actuatord = actuatord,
+        /// A CiA 402 servo drive in cyclic synchronous torque (`command = "torque"`) or velocity
+        /// (`command = "velocity"`) mode.
+        Cia402 = cia402,
+        /// A CiA 401 I/O module: analog inputs for position, current and supply, an analog
+        /// output for the command.
+        Cia401 = cia401,
     }
 }
 
