@@ -50,3 +50,17 @@ declare_section! {
         },
     }
 }
+
+impl ControllerSection {
+    /// A controller that outputs nothing within `[output_min, output_max]`: what a dictionary
+    /// built without a configuration shows.
+    pub fn unconfigured(output_min: f64, output_max: f64) -> Self {
+        Self {
+            q_per_m: Vec::new(),
+            state_space_file: None,
+            p: Vec::new(),
+            output_min,
+            output_max,
+        }
+    }
+}

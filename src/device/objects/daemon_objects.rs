@@ -202,13 +202,7 @@ impl Default for AxisParameters {
             safe_command: 0.0,
             initial_setpoint_m: 0.0,
             setpoint_rate_max_m_per_s: f64::INFINITY,
-            controller: ControllerSection {
-                q_per_m: Vec::new(),
-                state_space_file: None,
-                p: Vec::new(),
-                output_min: -1.0,
-                output_max: 1.0,
-            },
+            controller: ControllerSection::unconfigured(-1.0, 1.0),
             friction_compensation: None,
             limits: LimitsSection::defaults()
                 .expect("every key of [axis.limits] has a default or may be left out"),
