@@ -212,20 +212,25 @@ pub fn check(axis: &AxisConfig) -> Result<(), (String, String)> {
             )
         }
     };
+    // The axis' keys these rules name, from the declaration.
+    const COMMAND: &str = crate::param_key!(AxisConfig, command);
+    const CIA402: &str = crate::param_key!(AxisConfig, cia402);
+    const CIA401: &str = crate::param_key!(AxisConfig, cia401);
+    const EDS: &str = crate::param_key!(AxisConfig, eds);
     let drive_command = matches!(axis.command, CommandKind::Torque | CommandKind::Velocity);
     match axis.profile {
         ProfileKind::Actuatord => {
             if drive_command {
                 return err(
-                    "command",
+                    COMMAND,
                     "\"torque\" and \"velocity\" are CiA 402 drive commands: set profile = \"cia402\""
                         .into(),
                 );
             }
             for (key, given) in [
-                ("cia402", axis.cia402.is_some()),
-                ("cia401", axis.cia401.is_some()),
-                ("eds", axis.eds.is_some()),
+                (CIA402, axis.cia402.is_some()),
+                (CIA401, axis.cia401.is_some()),
+                (EDS, axis.eds.is_some()),
             ] {
                 if given {
                     return err(key, "belongs to profile = \"cia402\" or \"cia401\"".into());
@@ -235,16 +240,16 @@ pub fn check(axis: &AxisConfig) -> Result<(), (String, String)> {
         ProfileKind::Cia402 => {
             if !drive_command {
                 return err(
-                    "command",
+                    COMMAND,
                     "a CiA 402 drive is commanded with \"torque\" (CST) or \"velocity\" (CSV)"
                         .into(),
                 );
             }
             let Some(d) = &axis.cia402 else {
-                return err("cia402", "is needed with profile = \"cia402\"".into());
+                return err(CIA402, "is needed with profile = \"cia402\"".into());
             };
             if axis.cia401.is_some() {
-                return err("cia401", "belongs to profile = \"cia401\"".into());
+                return err(CIA401, "belongs to profile = \"cia401\"".into());
             }
             positive("cia402.position_m_per_inc", d.position_m_per_inc)?;
             positive(
@@ -264,15 +269,15 @@ pub fn check(axis: &AxisConfig) -> Result<(), (String, String)> {
         ProfileKind::Cia401 => {
             if drive_command {
                 return err(
-                    "command",
+                    COMMAND,
                     "a CiA 401 module outputs \"voltage\" or \"duty\"".into(),
                 );
             }
             let Some(io) = &axis.cia401 else {
-                return err("cia401", "is needed with profile = \"cia401\"".into());
+                return err(CIA401, "is needed with profile = \"cia401\"".into());
             };
             if axis.cia402.is_some() {
-                return err("cia402", "belongs to profile = \"cia402\"".into());
+                return err(CIA402, "belongs to profile = \"cia402\"".into());
             }
             channel("cia401.position_input", io.position_input)?;
             positive("cia401.position_m_per_count", io.position_m_per_count)?;
