@@ -748,3 +748,106 @@ fn the_axis_own_keys_are_declared() {
     assert!(a.start_node, "declared default");
     assert!(!a.present("setpoint_rate_max_m_per_s"));
 }
+
+fn load_with(file: &str, from: &str, to: &str) -> Result<Config, String> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join(file)).expect("shipped config");
+    assert!(text.contains(from), "{file} holds {from}");
+    Config::from_toml(&text.replacen(from, to, 1), Path::new("axis.toml"))
+        .map_err(|e| e.to_string())
+}
+
+#[test]
+fn the_profile_sections_are_checked_by_their_declarations() {
+    use actuatord::daemon::profile_config::{Cia401Section, Cia402Section};
+    assert!(Cia402Section::PARAMS
+        .iter()
+        .all(|p| p.access == Access::Restart));
+    let drive = "config/cia402_linear_axis.toml";
+    let err = load_with(
+        drive,
+        "velocity_m_per_s_per_unit = 1e-6",
+        "velocity_m_per_s_per_unit = 0.0",
+    )
+    .expect_err("a zero scale");
+    assert!(
+        err.contains("cia402.velocity_m_per_s_per_unit must be finite and non-zero, got 0"),
+        "{err}"
+    );
+    // A negative scale says the sensor counts the other way: it is taken.
+    let c = load_with(
+        drive,
+        "position_m_per_inc = 1e-6",
+        "position_m_per_inc = -1e-6",
+    )
+    .expect("a negative scale");
+    let d = c.axis[0].cia402.as_ref().expect("cia402");
+    assert_eq!(d.position_m_per_inc, -1e-6);
+    assert_eq!(d.startup_timeout_s, 5.0, "the declared default");
+    let err = load_with(
+        drive,
+        "dc_link_v_per_unit = 0.001",
+        "dc_link_v_per_unit = 0.001\nstartup_timeout_s = 0.0",
+    )
+    .expect_err("no time to wait");
+    assert!(
+        err.contains("cia402.startup_timeout_s must be > 0, got 0"),
+        "{err}"
+    );
+
+    assert!(Cia401Section::spec("position_input").is_some());
+    let module = "config/cia401_solenoid.toml";
+    let err =
+        load_with(module, "command_output = 1", "command_output = 255").expect_err("no channel");
+    assert!(
+        err.contains("cia401.command_output must be a channel (subindex) in 1..=254, got 255"),
+        "{err}"
+    );
+    // A scale is needed only where its channel is wired.
+    let err = load_with(module, "supply_per_count = 0.001", "supply_per_count = 0.0")
+        .expect_err("a wired supply without a scale");
+    assert!(
+        err.contains("cia401.supply_per_count must be finite and non-zero, got 0"),
+        "{err}"
+    );
+    let c = load_with(module, "supply_input = 3", "").expect("supply not wired");
+    assert_eq!(
+        c.axis[0].cia401.as_ref().expect("cia401").supply_input,
+        None
+    );
+    let err = load_with(module, "supply_input = 3", "supply_input = 1").expect_err("twice");
+    assert!(
+        err.contains("cia401.supply_input analog input 1 is already used"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_setpoint_step_is_checked_by_its_declaration_and_placed_at_its_own_entry() {
+    let file = "config/solenoid.toml";
+    let err = load_with(file, "at_s = 1.0", "at_s = -1.0").expect_err("before the start");
+    assert!(
+        err.contains("setpoints #1 at_s must be >= 0 and not earlier than the one before, got -1"),
+        "{err}"
+    );
+    let err = load_with(file, "at_s = 2.0", "at_s = 0.5").expect_err("out of order");
+    assert!(
+        err.contains("setpoints #2 at_s must be >= 0 and not earlier than the one before, got 0.5"),
+        "{err}"
+    );
+    let err = load_with(file, "position_m = 0.0102", "position_m = inf").expect_err("infinite");
+    assert!(
+        err.contains("setpoints #2 position_m must be a finite number, got inf"),
+        "{err}"
+    );
+    // A key missing from the second entry is shown at that entry, not at the first.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join(file)).expect("shipped config");
+    let second = text
+        .lines()
+        .position(|l| l == "at_s = 2.0")
+        .expect("a second step");
+    let err = load_with(file, "position_m = 0.0102", "").expect_err("no position");
+    assert!(err.contains("missing field `position_m`"), "{err}");
+    assert!(err.contains(&format!("line {second},")), "{err}");
+}

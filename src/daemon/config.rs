@@ -7,11 +7,11 @@ use crate::control::{
     PneumaticAdaptive, PneumaticAdaptiveConfig, SchedulePoint,
 };
 use crate::param::Declared;
-use crate::param_key;
 use crate::supervise::{
     DisturbanceObserver, EstimatorSupervisorConfig, FaultMachineConfig, ObserverConfig,
     ParameterEstimator,
 };
+use crate::{declare_section, param_key};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -124,12 +124,22 @@ pub use crate::supervise::{FaultReactionsSection, ReactionName};
 /// `[axis.limits]`, declared with its ranges and access where the supervision lives.
 pub use crate::supervise::LimitsSection;
 
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct SetpointStep {
-    /// Seconds after the start of the cycle.
-    pub at_s: f64,
-    pub position_m: f64,
+declare_section! {
+    /// `[[axis.setpoints]]`: one step of an axis' setpoint schedule. Each step comes after the
+    /// one before and lies within the travel (checked with the axis' limits).
+    #[derive(Copy)]
+    pub struct SetpointStep {
+        /// Seconds after the start of the cycle.
+        at_s: f64 = {
+            unit: "s", min: 0.0, max: f64::MAX, access: Restart,
+            doc: "when the step is taken, after the start of the cycle",
+            words: ">= 0 and not earlier than the one before",
+        },
+        position_m: f64 = {
+            unit: "m", min: f64::MIN, max: f64::MAX, access: Restart,
+            doc: "the setpoint from then on",
+        },
+    }
 }
 
 impl Config {
@@ -433,21 +443,22 @@ impl Config {
             }
             let mut last = f64::NEG_INFINITY;
             for (j, s) in axis.setpoints.iter().enumerate() {
-                let key = at(&format!("setpoints #{}", j + 1));
-                if !(s.at_s.is_finite() && s.at_s >= 0.0 && s.at_s >= last) {
-                    return Err(bad(
-                        &key,
-                        format!(
-                            "at_s must be >= 0 and not earlier than the one before, got {}",
-                            s.at_s
-                        ),
-                    ));
+                let key = at(&format!("{} #{}", param_key!(AxisConfig, setpoints), j + 1));
+                let rule = |e: ParamError| bad(&key, format!("{} {}", e.name, e.reason));
+                s.check().map_err(rule)?;
+                if s.at_s < last {
+                    let at_s = SetpointStep::spec(param_key!(SetpointStep, at_s));
+                    return Err(rule(ParamError::new(
+                        param_key!(SetpointStep, at_s),
+                        format!("must be {}, got {}", at_s.map_or("", |p| p.words), s.at_s),
+                    )));
                 }
-                if !s.position_m.is_finite() || !in_travel(s.position_m) {
+                if !in_travel(s.position_m) {
                     return Err(bad(
                         &key,
                         format!(
-                            "position_m {} lies outside the position limits",
+                            "{} {} lies outside the position limits",
+                            param_key!(SetpointStep, position_m),
                             s.position_m
                         ),
                     ));

@@ -73,6 +73,8 @@ pub struct ParamSpec {
     pub command_bound: bool,
     /// The values a [`Kind::Choice`] key takes, as written in the file; empty otherwise.
     pub choices: &'static [&'static str],
+    /// Zero is refused although the range holds it: a scale whose sign carries a direction.
+    pub nonzero: bool,
 }
 
 impl ParamSpec {
@@ -129,7 +131,8 @@ impl ParamSpec {
                 format!("must be finite, got {value} (leave the key out instead)"),
             ));
         }
-        if value.is_nan() || value < self.min || value > self.max || !integral {
+        let zero = self.nonzero && value == 0.0;
+        if value.is_nan() || value < self.min || value > self.max || !integral || zero {
             return Err(ParamError::new(
                 self.name,
                 format!("must be {}, got {value}", self.range_text()),
@@ -377,7 +380,8 @@ pub const FORCE_PER_COMMAND_UNIT: &str = "N/command";
 /// `Option`: left out, it is `None`). `min` and `max` may be left out where the type bounds
 /// the value (a count's 0, a path); the side is then open. `words:` says in an error what the
 /// range asks for, where the wording derived from it ("a finite number > 0") would differ from
-/// the one a section's users already know ("> 0").
+/// the one a section's users already know ("> 0"). `nonzero: true` refuses zero within the
+/// range (a scale whose sign says the direction).
 ///
 /// ```ignore
 /// declare_section! {
@@ -407,6 +411,7 @@ macro_rules! declare_section {
                     $(, points: [$($point:ident),* $(,)?])?
                     $(, kept: $kept:expr)?
                     $(, command_bound: $command_bound:expr)?
+                    $(, nonzero: $nonzero:expr)?
                     $(, absent: $absent:expr)?
                     $(, default: $default:expr)? $(,)?
                 }
@@ -428,15 +433,37 @@ macro_rules! declare_section {
                 struct Keys {
                     $( $field: Option<$ty>, )*
                 }
-                let keys = Keys::deserialize(d)?;
-                Ok($name {
-                    $(
-                        $field: match keys.$field {
-                            Some(v) => v,
-                            None => $crate::__declared_default!($field, $ty $(, $default)?),
-                        },
-                    )*
-                })
+                // A missing key is reported from within the table, as a derived struct's is,
+                // so that the format places it at this table and not at an enclosing one (an
+                // entry of an array of tables rather than the array's first).
+                struct Section;
+                impl<'de> serde::de::Visitor<'de> for Section {
+                    type Value = $name;
+                    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                        f.write_str("a table")
+                    }
+                    fn visit_map<A: serde::de::MapAccess<'de>>(
+                        self,
+                        map: A,
+                    ) -> Result<$name, A::Error> {
+                        let keys = <Keys as serde::Deserialize>::deserialize(
+                            serde::de::value::MapAccessDeserializer::new(map),
+                        )?;
+                        Ok($name {
+                            $(
+                                $field: match keys.$field {
+                                    Some(v) => v,
+                                    None => $crate::__declared_default!($field, $ty $(, $default)?),
+                                },
+                            )*
+                        })
+                    }
+                }
+                d.deserialize_struct(
+                    stringify!($name),
+                    &[$(stringify!($field)),*],
+                    Section,
+                )
             }
         }
 
@@ -470,6 +497,7 @@ macro_rules! declare_section {
                         kept: $crate::__declared_or!(0 $(, $kept)?),
                         command_bound: $crate::__declared_or!(false $(, $command_bound)?),
                         choices: <$ty as $crate::param::ParamValue>::CHOICES,
+                        nonzero: $crate::__declared_or!(false $(, $nonzero)?),
                     },
                 )*
             ];
