@@ -8,7 +8,10 @@ use super::ParamError;
 /// When a declared parameter may change in a running node.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Access {
-    /// Part of the structure (a model, the poles): only by a restart; not in the dictionary.
+    /// Part of the structure (a model, the poles, a section as a whole): not in the dictionary,
+    /// so never written over SDO. A reload (SIGHUP) changes it and rebuilds the axis, except
+    /// what the node is built around (the bus, the node ids, an axis' command and profile, the
+    /// cycle period: `ControllerNode::swap_in` refuses those), which only a restart changes.
     Restart,
     /// Over SDO while the node is pre-operational, or by a reload.
     PreOperational,
@@ -662,42 +665,4 @@ macro_rules! param_key {
         }
         stringify!($field)
     }};
-}
-
-/// The names `<key>_0`, `<key>_1`, ... of the points of array key `$field` of section
-/// `$section` (a read-only view of a table in the dictionary), the key checked against the
-/// declaration like [`param_key!`]. `$field as $stem` names the points `<stem>_k` where the
-/// entries carry the unit themselves: the stem must begin the key (checked at compile time).
-#[macro_export]
-macro_rules! param_key_points {
-    ($section:ty, $field:ident, [$($i:literal),* $(,)?]) => {
-        $crate::param_key_points!($section, $field as $field, [$($i),*])
-    };
-    ($section:ty, $field:ident as $stem:ident, [$($i:literal),* $(,)?]) => {{
-        #[allow(dead_code)]
-        fn declared(section: &$section) {
-            let _ = &section.$field;
-        }
-        const _: () = assert!(
-            $crate::param::begins_with(stringify!($field), stringify!($stem)),
-            "the points' stem must begin the key"
-        );
-        [$(concat!(stringify!($stem), "_", $i)),*]
-    }};
-}
-
-/// `s` begins with `prefix` (usable in constants).
-pub const fn begins_with(s: &str, prefix: &str) -> bool {
-    let (s, p) = (s.as_bytes(), prefix.as_bytes());
-    if p.len() > s.len() {
-        return false;
-    }
-    let mut i = 0;
-    while i < p.len() {
-        if s[i] != p[i] {
-            return false;
-        }
-        i += 1;
-    }
-    true
 }
