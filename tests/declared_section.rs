@@ -554,3 +554,300 @@ fn the_schedule_factors_follow_their_declared_ranges() {
         );
     }
 }
+
+/// `[axis.controller]`: the coefficient arrays are one entry per slot, named by the declaration,
+/// in its order, with its unit, range and documentation; a write reaches its slot, a zero written
+/// to the last one shortens the array (never below the one coefficient `q_per_m` needs), and the
+/// output limits are bounded by the command's range.
+#[test]
+fn the_controller_entries_and_sdo_writes_are_the_declaration() {
+    use actuatord::control::ControllerSection;
+    let mut config = shipped();
+    let mut od = dictionary::build(&config).expect("dictionary");
+    let at = |od: &ObjectDictionary, sub: u8| {
+        od.entry(
+            od.handle(ObjectId::new(index::axis(0, index::CONTROLLER), sub))
+                .expect("entry"),
+        )
+        .clone()
+    };
+    let mut sub = 1;
+    for p in ControllerSection::PARAMS {
+        if p.access == Access::Restart {
+            assert!(p.points.is_empty(), "{}", p.name);
+            continue;
+        }
+        let names: Vec<&str> = if p.points.is_empty() {
+            vec![p.name]
+        } else {
+            p.points.to_vec()
+        };
+        for name in names {
+            let e = at(&od, sub);
+            assert_eq!(e.name, name);
+            assert_eq!(e.description, p.doc, "{name}");
+            assert_eq!(e.access, OdAccess::ReadWritePreOperational, "{name}");
+            sub += 1;
+        }
+    }
+    assert_eq!(sub, 15, "6 + 6 coefficients and 2 limits");
+    assert_eq!(at(&od, 1).unit, "V/m");
+    assert_eq!(at(&od, 1).max.and_then(|v| v.as_f64()), Some(1e12));
+    assert_eq!(
+        at(&od, 4).default,
+        Value::Real64(0.0),
+        "q3: a slot not used"
+    );
+    assert_eq!(at(&od, 13).max.and_then(|v| v.as_f64()), Some(1000.0));
+
+    let write = |od: &mut ObjectDictionary, config: &mut Config, name: &str, v: f64| {
+        let h = entry_of(od, index::CONTROLLER, name).expect(name);
+        od.stage_value(h, Value::Real64(v), NmtState::PreOperational)
+            .expect("within range");
+        for w in od.take_pending_writes().collect::<Vec<_>>() {
+            dictionary::apply_write(config, &w).expect("applies");
+        }
+    };
+    write(&mut od, &mut config, "q4_per_m", 7.0);
+    assert_eq!(
+        config.axis[0].controller.q_per_m,
+        [2231.0, -4204.0, 2000.0, 0.0, 7.0]
+    );
+    write(&mut od, &mut config, "q4_per_m", 0.0);
+    assert_eq!(config.axis[0].controller.q_per_m, [2231.0, -4204.0, 2000.0]);
+    write(&mut od, &mut config, "p2", 0.0);
+    write(&mut od, &mut config, "p1", 0.0);
+    assert!(config.axis[0].controller.p.is_empty(), "p may be empty");
+    for name in ["q2_per_m", "q1_per_m", "q0_per_m"] {
+        write(&mut od, &mut config, name, 0.0);
+    }
+    assert_eq!(config.axis[0].controller.q_per_m, [0.0], "q keeps one");
+    write(&mut od, &mut config, "output_max", 12.0);
+    assert_eq!(config.axis[0].controller.output_max, 12.0);
+    let mut c = config.axis[0].controller.clone();
+    assert!(c.set("q6_per_m", 1.0).is_err(), "no such slot");
+    assert_eq!(
+        c.set("q1_per_m", 2e12).expect_err("beyond the range").name,
+        "q_per_m"
+    );
+}
+
+/// A choice key (`[axis.fault_reactions]`, `[bus] on_loss`): its declaration lists the values the
+/// file takes, a misspelled one is refused with that list, and each value reaches the fault
+/// machine or the node.
+#[test]
+fn choice_keys_list_their_values_and_refuse_others() {
+    use actuatord::daemon::config::{BusConfig, BusLossPolicy, FaultReactionsSection};
+    use actuatord::supervise::{Reaction, SupervisedFault};
+    for p in FaultReactionsSection::PARAMS {
+        assert_eq!(p.kind, Kind::Choice, "{}", p.name);
+        assert_eq!(p.choices, ["warning", "maintenance_requested", "fail_safe"]);
+        assert!(p.optional && p.access == Access::Restart, "{}", p.name);
+    }
+    let spec = BusConfig::spec("on_loss").expect("declared");
+    assert_eq!(spec.choices_text(), "`safe_state` or `continue`");
+    let err = toml::from_str::<FaultReactionsSection>("current_gain = \"shrug\"")
+        .expect_err("not a reaction");
+    assert!(
+        err.to_string()
+            .contains("expected one of `warning`, `maintenance_requested`, `fail_safe`"),
+        "{err}"
+    );
+    let r: FaultReactionsSection =
+        toml::from_str("current_gain = \"warning\"\nsensor_offset = \"fail_safe\"").expect("ok");
+    let machine = r.machine_config();
+    let reaction = |f| {
+        machine
+            .policies
+            .iter()
+            .find(|p| p.fault == f)
+            .map(|p| p.reaction)
+    };
+    assert_eq!(
+        reaction(SupervisedFault::CurrentGain),
+        Some(Reaction::Warning)
+    );
+    assert_eq!(
+        reaction(SupervisedFault::SensorOffset),
+        Some(Reaction::FailSafe)
+    );
+    // Left out: the fault machine's default.
+    assert_eq!(
+        reaction(SupervisedFault::SpringPretension),
+        Some(Reaction::Maintenance)
+    );
+    let bus: BusConfig = toml::from_str("iface = \"can1\"\non_loss = \"continue\"").expect("ok");
+    assert_eq!(bus.on_loss, BusLossPolicy::Continue);
+    assert_eq!(bus.on_loss.name(), "continue");
+    assert_eq!(
+        (bus.bitrate_bps, bus.max_load),
+        (500_000, 0.7),
+        "declared defaults"
+    );
+}
+
+/// The schedule's read-only view: one entry per point of each column the axis has, named by the
+/// declaration, read-only, with the declared unit.
+#[test]
+fn the_schedule_view_is_the_declaration() {
+    use actuatord::control::ScheduleSection;
+    use actuatord::device::objects::axis_intelligence::SCHEDULE;
+    let config = shipped();
+    let s = config.axis[0]
+        .schedule
+        .clone()
+        .expect("the solenoid schedules");
+    let supply = s.supply_voltage_v.clone().expect("on the supply voltage");
+    let od = dictionary::build(&config).expect("dictionary");
+    let points = entry_of(&od, SCHEDULE, "points").expect("count");
+    assert_eq!(od.value(points), Value::Unsigned8(supply.len() as u8));
+    let mut shown = 0;
+    for p in ScheduleSection::PARAMS {
+        for (k, name) in p.points.iter().enumerate() {
+            let Some(v) = s.point(p.name, k) else {
+                continue;
+            };
+            let e = od.entry(entry_of(&od, SCHEDULE, name).expect(name));
+            assert_eq!(e.access, OdAccess::ReadOnly, "{name}");
+            assert_eq!(e.unit, p.unit, "{name}");
+            assert_eq!(e.default, Value::Real64(v), "{name}");
+            shown += 1;
+        }
+    }
+    assert_eq!(shown, 2 * supply.len(), "the supply and the gain factor");
+}
+
+/// The axis' own keys: the TOML keys are the declared fields, and their ranges are the rules
+/// the configuration applies, with the wording its users know.
+#[test]
+fn the_axis_own_keys_are_declared() {
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("config/solenoid.toml"))
+            .expect("shipped config");
+    let id = AxisConfig::spec("actuator_node_id").expect("declared");
+    assert_eq!((id.min, id.max), (1.0, 127.0));
+    let bad = text.replace("actuator_node_id = 16", "actuator_node_id = 0");
+    let err = Config::from_toml(&bad, Path::new("x.toml")).expect_err("node id 0");
+    assert_eq!(
+        err.to_string(),
+        "x.toml: [[axis]] #1 (solenoid) actuator_node_id must be a node id in 1..=127, got 0"
+    );
+    let bad = text.replace(
+        "actuator_node_id = 16",
+        "actuator_node_id = 16\nsetpoint_rate_max_m_per_s = -0.5",
+    );
+    let err = Config::from_toml(&bad, Path::new("x.toml")).expect_err("a negative rate");
+    assert!(
+        err.to_string()
+            .ends_with("setpoint_rate_max_m_per_s must be > 0, got -0.5"),
+        "{err}"
+    );
+    let spec = AxisConfig::spec("command").expect("declared");
+    assert_eq!(spec.choices, ["voltage", "duty", "torque", "velocity"]);
+    let a = &shipped().axis[0];
+    assert!(a.start_node, "declared default");
+    assert!(!a.present("setpoint_rate_max_m_per_s"));
+}
+
+fn load_with(file: &str, from: &str, to: &str) -> Result<Config, String> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join(file)).expect("shipped config");
+    assert!(text.contains(from), "{file} holds {from}");
+    Config::from_toml(&text.replacen(from, to, 1), Path::new("axis.toml"))
+        .map_err(|e| e.to_string())
+}
+
+#[test]
+fn the_profile_sections_are_checked_by_their_declarations() {
+    use actuatord::daemon::profile_config::{Cia401Section, Cia402Section};
+    assert!(Cia402Section::PARAMS
+        .iter()
+        .all(|p| p.access == Access::Restart));
+    let drive = "config/cia402_linear_axis.toml";
+    let err = load_with(
+        drive,
+        "velocity_m_per_s_per_unit = 1e-6",
+        "velocity_m_per_s_per_unit = 0.0",
+    )
+    .expect_err("a zero scale");
+    assert!(
+        err.contains("cia402.velocity_m_per_s_per_unit must be finite and non-zero, got 0"),
+        "{err}"
+    );
+    // A negative scale says the sensor counts the other way: it is taken.
+    let c = load_with(
+        drive,
+        "position_m_per_inc = 1e-6",
+        "position_m_per_inc = -1e-6",
+    )
+    .expect("a negative scale");
+    let d = c.axis[0].cia402.as_ref().expect("cia402");
+    assert_eq!(d.position_m_per_inc, -1e-6);
+    assert_eq!(d.startup_timeout_s, 5.0, "the declared default");
+    let err = load_with(
+        drive,
+        "dc_link_v_per_unit = 0.001",
+        "dc_link_v_per_unit = 0.001\nstartup_timeout_s = 0.0",
+    )
+    .expect_err("no time to wait");
+    assert!(
+        err.contains("cia402.startup_timeout_s must be > 0, got 0"),
+        "{err}"
+    );
+
+    assert!(Cia401Section::spec("position_input").is_some());
+    let module = "config/cia401_solenoid.toml";
+    let err =
+        load_with(module, "command_output = 1", "command_output = 255").expect_err("no channel");
+    assert!(
+        err.contains("cia401.command_output must be a channel (subindex) in 1..=254, got 255"),
+        "{err}"
+    );
+    // A scale is needed only where its channel is wired.
+    let err = load_with(module, "supply_per_count = 0.001", "supply_per_count = 0.0")
+        .expect_err("a wired supply without a scale");
+    assert!(
+        err.contains("cia401.supply_per_count must be finite and non-zero, got 0"),
+        "{err}"
+    );
+    let c = load_with(module, "supply_input = 3", "").expect("supply not wired");
+    assert_eq!(
+        c.axis[0].cia401.as_ref().expect("cia401").supply_input,
+        None
+    );
+    let err = load_with(module, "supply_input = 3", "supply_input = 1").expect_err("twice");
+    assert!(
+        err.contains("cia401.supply_input analog input 1 is already used"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_setpoint_step_is_checked_by_its_declaration_and_placed_at_its_own_entry() {
+    let file = "config/solenoid.toml";
+    let err = load_with(file, "at_s = 1.0", "at_s = -1.0").expect_err("before the start");
+    assert!(
+        err.contains("setpoints #1 at_s must be >= 0 and not earlier than the one before, got -1"),
+        "{err}"
+    );
+    let err = load_with(file, "at_s = 2.0", "at_s = 0.5").expect_err("out of order");
+    assert!(
+        err.contains("setpoints #2 at_s must be >= 0 and not earlier than the one before, got 0.5"),
+        "{err}"
+    );
+    let err = load_with(file, "position_m = 0.0102", "position_m = inf").expect_err("infinite");
+    assert!(
+        err.contains("setpoints #2 position_m must be a finite number, got inf"),
+        "{err}"
+    );
+    // A key missing from the second entry is shown at that entry, not at the first.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join(file)).expect("shipped config");
+    let second = text
+        .lines()
+        .position(|l| l == "at_s = 2.0")
+        .expect("a second step");
+    let err = load_with(file, "position_m = 0.0102", "").expect_err("no position");
+    assert!(err.contains("missing field `position_m`"), "{err}");
+    assert!(err.contains(&format!("line {second},")), "{err}");
+}

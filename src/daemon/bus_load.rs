@@ -1,6 +1,7 @@
 //! The bus load the configuration asks for, computed before the daemon starts.
 
 use super::config::{CommandKind, Config};
+use super::profile_config::ProfileKind;
 use crate::device::messages::{
     Message, COMMAND, FAULT_DIAGNOSIS, FAULT_STATE, HEARTBEAT_ACTUATOR, HEARTBEAT_CONTROLLER,
     LOOP_STATUS, SENSOR, SUPPLY_PRESSURE, SYNC, TUNED_GAINS, TUNED_PARAMETERS,
@@ -49,7 +50,7 @@ pub fn bus_load(config: &Config) -> BusLoad {
             traffic.push((&SENSOR, cycle_hz));
             traffic.push((&COMMAND, cycle_hz));
         }
-        if axis.command == CommandKind::Duty && axis.profile == Default::default() {
+        if axis.command == CommandKind::Duty && axis.profile == ProfileKind::Actuatord {
             traffic.push((&SUPPLY_PRESSURE, cycle_hz));
         }
         // Actuator nodes beat at the same rate as this node (as `actuator sim` does).

@@ -7,11 +7,11 @@ use crate::control::{
     PneumaticAdaptive, PneumaticAdaptiveConfig, SchedulePoint,
 };
 use crate::param::Declared;
-use crate::param_key;
 use crate::supervise::{
     DisturbanceObserver, EstimatorSupervisorConfig, FaultMachineConfig, ObserverConfig,
-    ParameterEstimator, Reaction, SupervisedFault,
+    ParameterEstimator,
 };
+use crate::{declare_section, param_key};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -76,151 +76,18 @@ pub struct Config {
     pub axis: Vec<AxisConfig>,
 }
 
-/// `[node]`, `[cycle]`, `[record]` and `[state]`, declared with their ranges and defaults.
-pub use super::node_sections::{CycleConfig, NodeConfig, RecordConfig, StateConfig};
+/// `[bus]`, `[node]`, `[cycle]`, `[record]` and `[state]`, declared with their ranges and
+/// defaults.
+pub use super::node_sections::{
+    BusConfig, BusLossPolicy, CycleConfig, NodeConfig, RecordConfig, StateConfig,
+};
 
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct BusConfig {
-    /// SocketCAN interface, e.g. "can0" or "vcan0".
-    pub iface: String,
-    /// Bit rate of the bus, for the load check (vcan has none; it is checked all the same).
-    #[serde(default = "default_bitrate")]
-    pub bitrate_bps: u32,
-    /// Largest share of the bit rate the periodic traffic may take; above it the daemon refuses
-    /// to start.
-    #[serde(default = "default_max_load")]
-    pub max_load: f64,
-    /// What the axes do when the bus is lost (interface down or gone, bus-off).
-    #[serde(default)]
-    pub on_loss: BusLossPolicy,
-    /// At start-up, how long to wait for the interface to exist and be up before giving up.
-    #[serde(default = "default_startup_wait_s")]
-    pub startup_wait_s: f64,
-}
+/// `[[axis]]`'s own keys, declared with their ranges and defaults, and what the command means.
+pub use super::axis_section::{AxisConfig, CommandKind};
 
-/// The axes' policy when the bus is lost, after CiA 301's error behaviour (object 1029h).
-#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum BusLossPolicy {
-    /// The controller leaves operational: when the bus is back every axis gets its safe
-    /// command, and control resumes only on an NMT start (or reset) from the operator.
-    #[default]
-    SafeState,
-    /// Control resumes by itself with the first sensor frames after the bus is back.
-    Continue,
-}
-
-impl BusLossPolicy {
-    pub fn name(self) -> &'static str {
-        match self {
-            BusLossPolicy::SafeState => "safe_state",
-            BusLossPolicy::Continue => "continue",
-        }
-    }
-}
-
-fn default_startup_wait_s() -> f64 {
-    30.0
-}
-
-fn default_bitrate() -> u32 {
-    500_000
-}
-
-fn default_max_load() -> f64 {
-    0.7
-}
-
-/// What the actuator command means.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum CommandKind {
-    /// Terminal voltage, V (solenoid, motor).
-    Voltage,
-    /// Signed valve duty, -1..1 (pneumatic).
-    Duty,
-    /// Torque in N·m, force in N on a linear axis: a CiA 402 drive's target torque (CST).
-    Torque,
-    /// Velocity in m/s (rad/s): a CiA 402 drive's target velocity (CSV).
-    Velocity,
-}
-
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct AxisConfig {
-    pub name: String,
-    /// Node id of the axis' actuator node (real or simulated), 1..=127.
-    pub actuator_node_id: u8,
-    pub command: CommandKind,
-    /// Send NMT start to the actuator node at start-up.
-    #[serde(default = "yes")]
-    pub start_node: bool,
-    /// Setpoint before any arrives, m.
-    pub initial_setpoint_m: f64,
-    /// Rate limit of the reference the loop tracks (m/s, rad/s on a rotary axis); absent: steps.
-    pub setpoint_rate_max_m_per_s: Option<f64>,
-    /// Command sent while a fault is latched (V or duty, as `command`); the spring-return rest for a solenoid.
-    #[serde(default)]
-    pub safe_command: f64,
-    pub controller: ControllerConfig,
-    pub friction_compensation: Option<FrictionCompensationSection>,
-    /// Adaptive friction compensation with a reference model; replaces the feed-forward of
-    /// `[axis.friction_compensation]`, whose values (when present) are its starting point.
-    pub adaptive_friction: Option<AdaptiveFrictionSection>,
-    /// A sine added to the command against stiction.
-    pub dither: Option<DitherSection>,
-    /// Inverse of the static force characteristic applied to the controller output.
-    pub correction: Option<CorrectionSection>,
-    /// Controller parameters as functions of the measured supply voltage or pressure.
-    pub schedule: Option<ScheduleSection>,
-    /// Online estimation of the drive gains of a duty axis and redesign of its P gains.
-    pub pneumatic_adaptive: Option<PneumaticAdaptiveSection>,
-    /// Disturbance observer with learned x4 bands (fault detection by state estimation).
-    pub observer: Option<ObserverSection>,
-    /// Parameter estimation, symptoms and diagnosis with the fault-symptom table.
-    pub parameter_estimation: Option<ParameterEstimationSection>,
-    /// Reaction per supervised fault; absent: the defaults of [`FaultReactionsSection`].
-    pub fault_reactions: Option<FaultReactionsSection>,
-    /// Adapted friction compensation stored by operating point (needs `[axis.adaptive_friction]`).
-    pub learned_table: Option<LearnedTableSection>,
-    pub limits: LimitsSection,
-    /// A setpoint schedule; setpoint frames on the bus override it until its next entry.
-    #[serde(default)]
-    pub setpoints: Vec<SetpointStep>,
-    /// What the actuator node speaks: "actuatord" (default), "cia402" or "cia401".
-    #[serde(default)]
-    pub profile: super::profile_config::ProfileKind,
-    /// A CiA 402 drive's units (`profile = "cia402"`).
-    pub cia402: Option<super::profile_config::Cia402Section>,
-    /// A CiA 401 module's channels and scaling (`profile = "cia401"`).
-    pub cia401: Option<super::profile_config::Cia401Section>,
-    /// The node's EDS: its default PDO mapping is used (and checked on the node) instead of
-    /// configuring one over SDO; relative to the configuration file.
-    pub eds: Option<std::path::PathBuf>,
-}
-
-fn yes() -> bool {
-    true
-}
-
-/// The general discrete controller `u(k) = -Σ p_i u(k-i) + Σ q_j e(k-j)`, e in m, u in the command unit.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ControllerConfig {
-    /// Numerator coefficients q_0..q_m, command unit per m of error.
-    #[serde(default)]
-    pub q_per_m: Vec<f64>,
-    /// A state-space controller file (`actuator design robust`) instead of `q_per_m`/`p`;
-    /// relative paths are taken from the configuration file's folder.
-    pub state_space_file: Option<std::path::PathBuf>,
-    /// Denominator coefficients p_1..p_n (without the leading 1).
-    #[serde(default)]
-    pub p: Vec<f64>,
-    /// Output limits in the command unit.
-    pub output_min: f64,
-    pub output_max: f64,
-}
+/// `[axis.controller]`, declared where the discrete controller lives; its rules between keys
+/// are checked in [`Config::validate`].
+pub use crate::control::ControllerSection;
 
 /// `[axis.friction_compensation]`, declared with its ranges and access where the feed-forward
 /// lives.
@@ -251,41 +118,28 @@ pub use crate::supervise::ObserverSection;
 /// lives, and its nominal parameters.
 pub use crate::supervise::{NominalParameters, ParameterEstimationSection};
 
-/// A reaction to a latched supervised fault, in increasing severity.
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum ReactionName {
-    Warning,
-    MaintenanceRequested,
-    FailSafe,
-}
-
-/// `[axis.fault_reactions]`: one reaction per supervised fault; unnamed faults keep the default
-/// (diagnosed F1-F3, F5 sensor offset and the observer's friction rise: maintenance_requested;
-/// F4 current gain and
-/// limit violations: fail_safe; an implausible estimator: warning).
-#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct FaultReactionsSection {
-    pub spring_pretension: Option<ReactionName>,
-    pub spring_stiffness: Option<ReactionName>,
-    pub friction_increase: Option<ReactionName>,
-    pub current_gain: Option<ReactionName>,
-    pub observer_friction: Option<ReactionName>,
-    pub estimator_implausible: Option<ReactionName>,
-    pub limit_violation: Option<ReactionName>,
-    pub sensor_offset: Option<ReactionName>,
-}
+/// `[axis.fault_reactions]`, declared where the fault machine lives, with its values.
+pub use crate::supervise::{FaultReactionsSection, ReactionName};
 
 /// `[axis.limits]`, declared with its ranges and access where the supervision lives.
 pub use crate::supervise::LimitsSection;
 
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct SetpointStep {
-    /// Seconds after the start of the cycle.
-    pub at_s: f64,
-    pub position_m: f64,
+declare_section! {
+    /// `[[axis.setpoints]]`: one step of an axis' setpoint schedule. Each step comes after the
+    /// one before and lies within the travel (checked with the axis' limits).
+    #[derive(Copy)]
+    pub struct SetpointStep {
+        /// Seconds after the start of the cycle.
+        at_s: f64 = {
+            unit: "s", min: 0.0, max: f64::MAX, access: Restart,
+            doc: "when the step is taken, after the start of the cycle",
+            words: ">= 0 and not earlier than the one before",
+        },
+        position_m: f64 = {
+            unit: "m", min: f64::MIN, max: f64::MAX, access: Restart,
+            doc: "the setpoint from then on",
+        },
+    }
 }
 
 impl Config {
@@ -336,48 +190,17 @@ impl Config {
             key: key.to_string(),
             rule,
         };
-        let positive = |key: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(bad(key, format!("must be > 0, got {v}")))
-            }
-        };
-        let node_id = |key: &str, v: u8| {
-            if (1..=127).contains(&v) {
-                Ok(())
-            } else {
-                Err(bad(key, format!("must be a node id in 1..=127, got {v}")))
-            }
-        };
         if self.bus.iface.is_empty() {
             return Err(bad(
                 &node_key!(bus: BusConfig, iface),
                 "must name a CAN interface".into(),
             ));
         }
-        if self.bus.bitrate_bps == 0 {
-            return Err(bad(
-                &node_key!(bus: BusConfig, bitrate_bps),
-                "must be > 0".into(),
-            ));
-        }
-        if !(self.bus.startup_wait_s.is_finite() && self.bus.startup_wait_s >= 0.0) {
-            return Err(bad(
-                &node_key!(bus: BusConfig, startup_wait_s),
-                format!("must be >= 0 s, got {}", self.bus.startup_wait_s),
-            ));
-        }
-        if !(self.bus.max_load > 0.0 && self.bus.max_load <= 1.0) {
-            return Err(bad(
-                &node_key!(bus: BusConfig, max_load),
-                format!("must be in (0, 1], got {}", self.bus.max_load),
-            ));
-        }
         // The node-wide sections: the ranges declared with them.
         let section = |name: &'static str| {
             move |e: ParamError| bad(&format!("[{name}] {}", e.name), e.reason)
         };
+        self.bus.check().map_err(section(param_key!(Config, bus)))?;
         self.node
             .check()
             .map_err(section(param_key!(Config, node)))?;
@@ -407,10 +230,8 @@ impl Config {
         let mut seen = vec![self.node.node_id];
         for (i, axis) in self.axis.iter().enumerate() {
             let at = |key: &str| format!("[[axis]] #{} ({}) {key}", i + 1, axis.name);
-            node_id(
-                &at(param_key!(AxisConfig, actuator_node_id)),
-                axis.actuator_node_id,
-            )?;
+            // The axis' own keys: the ranges declared with them.
+            axis.check().map_err(|e| bad(&at(e.name), e.reason))?;
             if seen.contains(&axis.actuator_node_id) {
                 return Err(bad(
                     &at(param_key!(AxisConfig, actuator_node_id)),
@@ -423,19 +244,23 @@ impl Config {
             if let Some(f) = &c.state_space_file {
                 if !c.q_per_m.is_empty() || !c.p.is_empty() {
                     return Err(bad(
-                        &at(&axis_key!(controller: ControllerConfig, state_space_file)),
-                        "replaces q_per_m and p: give one or the other".into(),
+                        &at(&axis_key!(controller: ControllerSection, state_space_file)),
+                        format!(
+                            "replaces {} and {}: give one or the other",
+                            param_key!(ControllerSection, q_per_m),
+                            param_key!(ControllerSection, p)
+                        ),
                     ));
                 }
                 let ss = crate::control::robust::StateSpaceController::load(f).map_err(|e| {
                     bad(
-                        &at(&axis_key!(controller: ControllerConfig, state_space_file)),
+                        &at(&axis_key!(controller: ControllerSection, state_space_file)),
                         format!("cannot be used: {e}"),
                     )
                 })?;
                 if (ss.period_s() - self.cycle.period_s).abs() > 1e-9 {
                     return Err(bad(
-                        &at(&axis_key!(controller: ControllerConfig, state_space_file)),
+                        &at(&axis_key!(controller: ControllerSection, state_space_file)),
                         format!(
                             "{} was designed for a {} s period, the cycle runs at {} s",
                             f.display(),
@@ -446,7 +271,7 @@ impl Config {
                 }
             } else if c.q_per_m.is_empty() || c.q_per_m.len() > crate::control::MAX_ORDER {
                 return Err(bad(
-                    &at(&axis_key!(controller: ControllerConfig, q_per_m)),
+                    &at(&axis_key!(controller: ControllerSection, q_per_m)),
                     format!(
                         "needs 1 to {} coefficients, got {}",
                         crate::control::MAX_ORDER,
@@ -456,7 +281,7 @@ impl Config {
             }
             if c.p.len() > crate::control::MAX_ORDER {
                 return Err(bad(
-                    &at(&axis_key!(controller: ControllerConfig, p)),
+                    &at(&axis_key!(controller: ControllerSection, p)),
                     format!("takes at most {} coefficients", crate::control::MAX_ORDER),
                 ));
             }
@@ -466,12 +291,21 @@ impl Config {
                     "coefficients must be finite".into(),
                 ));
             }
+            // Whatever the rules above leave: the ranges declared with the section.
+            c.check().map_err(|e| {
+                bad(
+                    &at(&format!("{}.{}", axis_key!(controller), e.name)),
+                    e.reason,
+                )
+            })?;
             if c.output_min >= c.output_max {
                 return Err(bad(
-                    &at(&axis_key!(controller: ControllerConfig, output_max)),
+                    &at(&axis_key!(controller: ControllerSection, output_max)),
                     format!(
-                        "must be > output_min ({}), got {}",
-                        c.output_min, c.output_max
+                        "must be > {} ({}), got {}",
+                        param_key!(ControllerSection, output_min),
+                        c.output_min,
+                        c.output_max
                     ),
                 ));
             }
@@ -488,8 +322,8 @@ impl Config {
                 return Err(bad(
                     &at(&format!(
                         "{}/{}",
-                        axis_key!(controller: ControllerConfig, output_min),
-                        param_key!(ControllerConfig, output_max)
+                        axis_key!(controller: ControllerSection, output_min),
+                        param_key!(ControllerSection, output_max)
                     )),
                     "must lie within [-1, 1] for command = \"duty\"".into(),
                 ));
@@ -504,9 +338,6 @@ impl Config {
             }
             axis.check_intelligence(self.cycle.period_s)
                 .map_err(|(key, rule)| bad(&at(&key), rule))?;
-            if let Some(v) = axis.setpoint_rate_max_m_per_s {
-                positive(&at(param_key!(AxisConfig, setpoint_rate_max_m_per_s)), v)?;
-            }
             let l = &axis.limits;
             l.check()
                 .map_err(|e| bad(&at(&format!("{}.{}", axis_key!(limits), e.name)), e.reason))?;
@@ -612,21 +443,22 @@ impl Config {
             }
             let mut last = f64::NEG_INFINITY;
             for (j, s) in axis.setpoints.iter().enumerate() {
-                let key = at(&format!("setpoints #{}", j + 1));
-                if !(s.at_s.is_finite() && s.at_s >= 0.0 && s.at_s >= last) {
-                    return Err(bad(
-                        &key,
-                        format!(
-                            "at_s must be >= 0 and not earlier than the one before, got {}",
-                            s.at_s
-                        ),
-                    ));
+                let key = at(&format!("{} #{}", param_key!(AxisConfig, setpoints), j + 1));
+                let rule = |e: ParamError| bad(&key, format!("{} {}", e.name, e.reason));
+                s.check().map_err(rule)?;
+                if s.at_s < last {
+                    let at_s = SetpointStep::spec(param_key!(SetpointStep, at_s));
+                    return Err(rule(ParamError::new(
+                        param_key!(SetpointStep, at_s),
+                        format!("must be {}, got {}", at_s.map_or("", |p| p.words), s.at_s),
+                    )));
                 }
-                if !s.position_m.is_finite() || !in_travel(s.position_m) {
+                if !in_travel(s.position_m) {
                     return Err(bad(
                         &key,
                         format!(
-                            "position_m {} lies outside the position limits",
+                            "{} {} lies outside the position limits",
+                            param_key!(SetpointStep, position_m),
                             s.position_m
                         ),
                     ));
@@ -842,30 +674,9 @@ impl AxisConfig {
 
     /// The fault machine's policies: the defaults with the configured reactions.
     pub fn fault_machine_config(&self) -> FaultMachineConfig {
-        let mut config = FaultMachineConfig::default();
-        let Some(r) = &self.fault_reactions else {
-            return config;
-        };
-        for policy in config.policies.iter_mut() {
-            let named = match policy.fault {
-                SupervisedFault::SpringPretension => r.spring_pretension,
-                SupervisedFault::SpringStiffness => r.spring_stiffness,
-                SupervisedFault::FrictionIncrease => r.friction_increase,
-                SupervisedFault::CurrentGain => r.current_gain,
-                SupervisedFault::ObserverFriction => r.observer_friction,
-                SupervisedFault::EstimatorImplausible => r.estimator_implausible,
-                SupervisedFault::LimitViolation => r.limit_violation,
-                SupervisedFault::SensorOffset => r.sensor_offset,
-            };
-            if let Some(n) = named {
-                policy.reaction = match n {
-                    ReactionName::Warning => Reaction::Warning,
-                    ReactionName::MaintenanceRequested => Reaction::Maintenance,
-                    ReactionName::FailSafe => Reaction::FailSafe,
-                };
-            }
-        }
-        config
+        self.fault_reactions
+            .as_ref()
+            .map_or_else(FaultMachineConfig::default, |r| r.machine_config())
     }
 
     /// Build every configured algorithm once, so a bad value is reported with its key here and

@@ -2,16 +2,13 @@
 //! the way SDO writes reach the configuration at a cycle boundary.
 
 use super::axis::AxisStep;
-use super::config::{
-    AxisConfig, CommandKind, Config, ControllerConfig, FrictionCompensationSection,
-};
+use super::config::{AxisConfig, CommandKind, Config, FrictionCompensationSection};
 use super::learned::AxisLearned;
 use super::record::CycleRecord;
 use crate::canopen::od::{BuildError, Handle, PendingWrite};
 use crate::canopen::{ObjectDictionary, Value};
 use crate::device::objects::axis_intelligence::{
-    self, symptom_bits, IntelligenceParameters, ScheduleParameters, BAND_NAMES, ESTIMATE_NAMES,
-    NOMINAL_NAMES,
+    self, symptom_bits, IntelligenceParameters, BAND_NAMES, ESTIMATE_NAMES, NOMINAL_NAMES,
 };
 use crate::device::objects::{daemon_dictionary, index, AxisParameters, Command, DeviceParameters};
 use crate::param::Declared;
@@ -19,14 +16,6 @@ use crate::param_key;
 
 /// One entry per configuration value the dictionary carries.
 pub fn axis_parameters(a: &AxisConfig) -> AxisParameters {
-    let mut q = [0.0; 6];
-    for (slot, v) in q.iter_mut().zip(&a.controller.q_per_m) {
-        *slot = *v;
-    }
-    let mut p = [0.0; 6];
-    for (slot, v) in p.iter_mut().zip(&a.controller.p) {
-        *slot = *v;
-    }
     let inf = f64::INFINITY;
     AxisParameters {
         name: a.name.clone(),
@@ -40,10 +29,7 @@ pub fn axis_parameters(a: &AxisConfig) -> AxisParameters {
         safe_command: a.safe_command,
         initial_setpoint_m: a.initial_setpoint_m,
         setpoint_rate_max_m_per_s: a.setpoint_rate_max_m_per_s.unwrap_or(inf),
-        q_per_m: q,
-        p,
-        output_min: a.controller.output_min,
-        output_max: a.controller.output_max,
+        controller: a.controller.clone(),
         friction_compensation: a.friction_compensation.clone(),
         limits: a.limits.clone(),
         intelligence: intelligence_parameters(a),
@@ -56,16 +42,7 @@ fn intelligence_parameters(a: &AxisConfig) -> IntelligenceParameters {
         adaptive_friction: a.adaptive_friction.clone(),
         observer: a.observer.clone(),
         estimation: a.parameter_estimation.clone(),
-        schedule: a.schedule.as_ref().map(|s| {
-            let (variable, supply) = s.variable();
-            ScheduleParameters {
-                supply_is_pressure: variable == super::config::ScheduleVariable::SupplyPressure,
-                supply: supply.to_vec(),
-                gain_factor: s.gain_factor.clone(),
-                drive_gain_down_m_per_s: s.drive_gain_down_m_per_s.clone(),
-                drive_gain_up_m_per_s: s.drive_gain_up_m_per_s.clone(),
-            }
-        }),
+        schedule: a.schedule.clone(),
     }
 }
 
@@ -149,44 +126,10 @@ pub fn apply_write(config: &mut Config, w: &PendingWrite) -> Result<WriteEffect,
         .ok_or_else(|| format!("{}: no axis {axis}", w.id))?;
     let finite = |v: f64| v.is_finite().then_some(v);
     let name = w.name;
-    if let Some(j) = name
-        .strip_prefix('q')
-        .and_then(|r| r.strip_suffix("_per_m"))
-        .and_then(|d| d.parse::<usize>().ok())
-    {
-        let q = &mut a.controller.q_per_m;
-        if q.len() <= j {
-            q.resize(j + 1, 0.0);
-        }
-        q[j] = number;
-        while q.len() > 1 && q.last() == Some(&0.0) {
-            q.pop();
-        }
-        return Ok(WriteEffect::Rebuild { axis });
-    }
-    if let Some(i) = name
-        .strip_prefix('p')
-        .and_then(|d| d.parse::<usize>().ok())
-        .filter(|i| *i >= 1)
-    {
-        let p = &mut a.controller.p;
-        if p.len() < i {
-            p.resize(i, 0.0);
-        }
-        p[i - 1] = number;
-        while p.last() == Some(&0.0) {
-            p.pop();
-        }
-        return Ok(WriteEffect::Rebuild { axis });
-    }
     // The entries named after the axis' own keys.
-    const OUTPUT_MIN: &str = param_key!(ControllerConfig, output_min);
-    const OUTPUT_MAX: &str = param_key!(ControllerConfig, output_max);
     const SAFE_COMMAND: &str = param_key!(AxisConfig, safe_command);
     const RATE_MAX: &str = param_key!(AxisConfig, setpoint_rate_max_m_per_s);
     match name {
-        OUTPUT_MIN => a.controller.output_min = number,
-        OUTPUT_MAX => a.controller.output_max = number,
         SAFE_COMMAND => a.safe_command = number,
         RATE_MAX => a.setpoint_rate_max_m_per_s = finite(number),
         "enabled" => {
@@ -215,6 +158,7 @@ fn apply_intelligence_write(
     let missing = || format!("{}: {name}: the section is not configured", w.id);
     let value = w.value.as_f64().unwrap_or(f64::NAN);
     let written = match index::split(w.id.index).map(|(_, offset)| offset) {
+        Some(index::CONTROLLER) => a.controller.set(name, value),
         Some(index::FRICTION_COMPENSATION) => friction(a).set(name, value),
         Some(index::LIMITS) => a.limits.set(name, value),
         Some(axis_intelligence::ADAPTIVE_FRICTION) => a

@@ -2,6 +2,7 @@
 //! It wires the layers below and has no maths of its own.
 
 pub mod axis;
+pub mod axis_section;
 pub mod bus_load;
 pub mod config;
 pub mod cycle;

@@ -1,16 +1,57 @@
-//! The node-wide sections `[node]`, `[cycle]`, `[record]` and `[state]`, declared once: their
-//! keys, units, ranges, defaults and the wording of their errors. None is in the dictionary
-//! (`Restart`); a reload takes what `ControllerNode::swap_in` allows (not the node id, not the
-//! period).
+//! The node-wide sections `[bus]`, `[node]`, `[cycle]`, `[record]` and `[state]`, declared
+//! once: their keys, units, ranges, defaults and the wording of their errors. None is in the
+//! dictionary (`Restart`); a reload takes what `ControllerNode::swap_in` allows (not the node
+//! id, not the period, not the bus).
 
 use std::path::PathBuf;
 
-use crate::declare_section;
+use crate::{declare_choice, declare_section};
 
 /// "> 0" for a time: finite and positive.
 const POSITIVE: f64 = f64::MIN_POSITIVE;
 /// The largest finite value: a time must not be infinite.
 const FINITE: f64 = f64::MAX;
+
+declare_section! {
+    /// `[bus]`: the CAN interface and what the node does when it is lost.
+    pub struct BusConfig {
+        /// SocketCAN interface, e.g. "can0" or "vcan0" (must not be empty: a rule of its own).
+        iface: String = { unit: "", access: Restart, doc: "SocketCAN interface" },
+        /// Bit rate of the bus, for the load check (vcan has none; it is checked all the same).
+        bitrate_bps: u32 = {
+            unit: "bit/s", min: 1.0, access: Restart, doc: "bit rate of the bus", words: "> 0",
+            default: 500_000,
+        },
+        /// At start-up, how long to wait for the interface to exist and be up before giving up.
+        startup_wait_s: f64 = {
+            unit: "s", min: 0.0, max: FINITE, access: Restart,
+            doc: "wait for the interface at start-up", words: ">= 0 s", default: 30.0,
+        },
+        /// Largest share of the bit rate the periodic traffic may take; above it the daemon
+        /// refuses to start.
+        max_load: f64 = {
+            unit: "", min: POSITIVE, max: 1.0, access: Restart,
+            doc: "largest share of the bit rate the periodic traffic may take",
+            words: "in (0, 1]", default: 0.7,
+        },
+        /// What the axes do when the bus is lost (interface down or gone, bus-off).
+        on_loss: BusLossPolicy = {
+            unit: "", access: Restart, doc: "what the axes do when the bus is lost",
+            default: BusLossPolicy::SafeState,
+        },
+    }
+}
+
+declare_choice! {
+    /// The axes' policy when the bus is lost, after CiA 301's error behaviour (object 1029h).
+    pub enum BusLossPolicy {
+        /// The controller leaves operational: when the bus is back every axis gets its safe
+        /// command, and control resumes only on an NMT start (or reset) from the operator.
+        SafeState = safe_state,
+        /// Control resumes by itself with the first sensor frames after the bus is back.
+        Continue = continue,
+    }
+}
 
 declare_section! {
     /// `[node]`: the daemon's own node on the bus.

@@ -6,87 +6,113 @@ use super::config::{AxisConfig, CommandKind};
 use crate::device::profile::cia401::{self, Scaling};
 use crate::device::profile::cia402::{self, Mode};
 use crate::device::profile::mapping::{Direction, MappedObject, Pdo};
-use serde::Deserialize;
+use crate::param::{Declared, ParamError, COMMAND_UNIT};
 
-/// What the axis' actuator node speaks.
-#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum ProfileKind {
-    /// Our own frames (`actuator sim`, or firmware written to `dbc/actuatord.dbc`).
-    #[default]
-    Actuatord,
-    /// A CiA 402 servo drive in cyclic synchronous torque (`command = "torque"`) or velocity
-    /// (`command = "velocity"`) mode.
-    Cia402,
-    /// A CiA 401 I/O module: analog inputs for position, current and supply, an analog output
-    /// for the command.
-    Cia401,
-}
-
-impl ProfileKind {
-    pub fn name(self) -> &'static str {
-        match self {
-            ProfileKind::Actuatord => "actuatord",
-            ProfileKind::Cia402 => "cia402",
-            ProfileKind::Cia401 => "cia401",
-        }
+crate::declare_choice! {
+    /// What the axis' actuator node speaks.
+    pub enum ProfileKind {
+        /// Our own frames (`actuator sim`, or firmware written to `dbc/actuatord.dbc`).
+        Actuatord = actuatord,
+        /// A CiA 402 servo drive in cyclic synchronous torque (`command = "torque"`) or velocity
+        /// (`command = "velocity"`) mode.
+        Cia402 = cia402,
+        /// A CiA 401 I/O module: analog inputs for position, current and supply, an analog
+        /// output for the command.
+        Cia401 = cia401,
     }
 }
 
-/// `[axis.cia402]`: the drive's units in SI.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Cia402Section {
-    /// Position actual value 6064h: m (rad on a rotary axis) per increment.
-    pub position_m_per_inc: f64,
-    /// Velocity actual value 606Ch and target velocity 60FFh: m/s (rad/s) per unit.
-    pub velocity_m_per_s_per_unit: f64,
-    /// DC link circuit voltage 6079h: V per unit (CiA 402 gives mV).
-    #[serde(default = "millivolt")]
-    pub dc_link_v_per_unit: f64,
-    /// Motor rated torque 6076h in N·m (N on a linear motor); absent: read from the drive at
-    /// start-up.
-    pub rated_torque_nm: Option<f64>,
-    /// Seconds to wait for the drive's SDO server at start-up.
-    #[serde(default = "startup_timeout")]
-    pub startup_timeout_s: f64,
+crate::declare_section! {
+    /// `[axis.cia402]`: the drive's units in SI.
+    pub struct Cia402Section {
+        /// Position actual value 6064h: m (rad on a rotary axis) per increment.
+        position_m_per_inc: f64 = {
+            unit: "m", min: f64::MIN, max: f64::MAX, access: Restart,
+            doc: "position actual value 6064h per increment", words: "finite and non-zero",
+            nonzero: true,
+        },
+        /// Velocity actual value 606Ch and target velocity 60FFh: m/s (rad/s) per unit.
+        velocity_m_per_s_per_unit: f64 = {
+            unit: "m/s", min: f64::MIN, max: f64::MAX, access: Restart,
+            doc: "velocity 606Ch and 60FFh per unit", words: "finite and non-zero",
+            nonzero: true,
+        },
+        /// DC link circuit voltage 6079h: V per unit (CiA 402 gives mV).
+        dc_link_v_per_unit: f64 = {
+            unit: "V", min: f64::MIN, max: f64::MAX, access: Restart,
+            doc: "DC link circuit voltage 6079h per unit", words: "finite and non-zero",
+            nonzero: true, default: 1e-3,
+        },
+        /// Motor rated torque 6076h in N·m (N on a linear motor); absent: read from the drive at
+        /// start-up.
+        rated_torque_nm: Option<f64> = {
+            unit: "N·m", min: f64::MIN_POSITIVE, max: f64::MAX, access: Restart,
+            doc: "motor rated torque 6076h", words: "> 0",
+        },
+        /// Seconds to wait for the drive's SDO server at start-up.
+        startup_timeout_s: f64 = {
+            unit: "s", min: f64::MIN_POSITIVE, max: f64::MAX, access: Restart,
+            doc: "wait for the drive's SDO server at start-up", words: "> 0", default: 5.0,
+        },
+    }
 }
 
-fn millivolt() -> f64 {
-    1e-3
-}
-
-fn startup_timeout() -> f64 {
-    5.0
-}
-
-/// `[axis.cia401]`: which channel is what, and its scaling (SI value = offset + scale · count).
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Cia401Section {
-    /// Analog input (6401h subindex, 1-based) of the position sensor.
-    pub position_input: u8,
-    pub position_m_per_count: f64,
-    #[serde(default)]
-    pub position_offset_m: f64,
-    /// Analog input of the coil current, if wired.
-    pub current_input: Option<u8>,
-    #[serde(default)]
-    pub current_a_per_count: f64,
-    /// Analog input of the supply (voltage for `command = "voltage"`, pressure for `"duty"`).
-    pub supply_input: Option<u8>,
-    /// V (or Pa) per count.
-    #[serde(default)]
-    pub supply_per_count: f64,
-    /// Analog output (6411h subindex) carrying the command.
-    pub command_output: u8,
-    /// V (or duty) per count.
-    pub command_per_count: f64,
-    #[serde(default)]
-    pub command_offset: f64,
-    /// Seconds to wait for the module's SDO server at start-up.
-    #[serde(default = "startup_timeout")]
-    pub startup_timeout_s: f64,
+crate::declare_section! {
+    /// `[axis.cia401]`: which channel is what, and its scaling (SI value = offset + scale ·
+    /// count). A channel's scale is checked where the channel is given.
+    pub struct Cia401Section {
+        /// Analog input (6401h subindex, 1-based) of the position sensor.
+        position_input: u8 = {
+            unit: "", min: 1.0, max: 254.0, access: Restart,
+            doc: "analog input of the position sensor", words: "a channel (subindex) in 1..=254",
+        },
+        position_m_per_count: f64 = {
+            unit: "m", min: f64::MIN, max: f64::MAX, access: Restart,
+            doc: "position per count", words: "finite and non-zero", nonzero: true,
+        },
+        position_offset_m: f64 = {
+            unit: "m", min: f64::MIN, max: f64::MAX, access: Restart,
+            doc: "position at count 0", default: 0.0,
+        },
+        /// Analog input of the coil current, if wired.
+        current_input: Option<u8> = {
+            unit: "", min: 1.0, max: 254.0, access: Restart,
+            doc: "analog input of the coil current", words: "a channel (subindex) in 1..=254",
+        },
+        current_a_per_count: f64 = {
+            unit: "A", min: f64::MIN, max: f64::MAX, access: Restart,
+            doc: "current per count", default: 0.0,
+        },
+        /// Analog input of the supply (voltage for `command = "voltage"`, pressure for `"duty"`).
+        supply_input: Option<u8> = {
+            unit: "", min: 1.0, max: 254.0, access: Restart,
+            doc: "analog input of the supply", words: "a channel (subindex) in 1..=254",
+        },
+        /// V (or Pa) per count.
+        supply_per_count: f64 = {
+            unit: "V", min: f64::MIN, max: f64::MAX, access: Restart,
+            doc: "supply per count", default: 0.0,
+        },
+        /// Analog output (6411h subindex) carrying the command.
+        command_output: u8 = {
+            unit: "", min: 1.0, max: 254.0, access: Restart,
+            doc: "analog output carrying the command", words: "a channel (subindex) in 1..=254",
+        },
+        /// V (or duty) per count.
+        command_per_count: f64 = {
+            unit: COMMAND_UNIT, min: f64::MIN, max: f64::MAX, access: Restart,
+            doc: "command per count", words: "finite and non-zero", nonzero: true,
+        },
+        command_offset: f64 = {
+            unit: COMMAND_UNIT, min: f64::MIN, max: f64::MAX, access: Restart,
+            doc: "command at count 0", default: 0.0,
+        },
+        /// Seconds to wait for the module's SDO server at start-up.
+        startup_timeout_s: f64 = {
+            unit: "s", min: f64::MIN_POSITIVE, max: f64::MAX, access: Restart,
+            doc: "wait for the module's SDO server at start-up", words: "> 0", default: 5.0,
+        },
+    }
 }
 
 impl Cia401Section {
@@ -203,40 +229,33 @@ pub fn desired_pdos(axis: &AxisConfig) -> Vec<Pdo> {
     }
 }
 
-/// The rules of the profile keys; `Err((key, rule))`.
+/// The rules of the profile keys: a section's own ranges from its declaration, and the rules
+/// between keys; `Err((key, rule))`.
 pub fn check(axis: &AxisConfig) -> Result<(), (String, String)> {
     let err = |k: &str, r: String| Err((k.to_string(), r));
-    let positive = |k: &str, v: f64| {
-        if v.is_finite() && v != 0.0 {
-            Ok(())
-        } else {
-            err(k, format!("must be finite and non-zero, got {v}"))
-        }
-    };
-    let channel = |k: &str, v: u8| {
-        if (1..=254).contains(&v) {
-            Ok(())
-        } else {
-            err(
-                k,
-                format!("must be a channel (subindex) in 1..=254, got {v}"),
-            )
-        }
+    // The axis' keys these rules name, from the declaration.
+    const COMMAND: &str = crate::param_key!(AxisConfig, command);
+    const CIA402: &str = crate::param_key!(AxisConfig, cia402);
+    const CIA401: &str = crate::param_key!(AxisConfig, cia401);
+    const EDS: &str = crate::param_key!(AxisConfig, eds);
+    let within = |section: &str| {
+        let section = section.to_string();
+        move |e: ParamError| (format!("{section}.{}", e.name), e.reason)
     };
     let drive_command = matches!(axis.command, CommandKind::Torque | CommandKind::Velocity);
     match axis.profile {
         ProfileKind::Actuatord => {
             if drive_command {
                 return err(
-                    "command",
+                    COMMAND,
                     "\"torque\" and \"velocity\" are CiA 402 drive commands: set profile = \"cia402\""
                         .into(),
                 );
             }
             for (key, given) in [
-                ("cia402", axis.cia402.is_some()),
-                ("cia401", axis.cia401.is_some()),
-                ("eds", axis.eds.is_some()),
+                (CIA402, axis.cia402.is_some()),
+                (CIA401, axis.cia401.is_some()),
+                (EDS, axis.eds.is_some()),
             ] {
                 if given {
                     return err(key, "belongs to profile = \"cia402\" or \"cia401\"".into());
@@ -246,75 +265,64 @@ pub fn check(axis: &AxisConfig) -> Result<(), (String, String)> {
         ProfileKind::Cia402 => {
             if !drive_command {
                 return err(
-                    "command",
+                    COMMAND,
                     "a CiA 402 drive is commanded with \"torque\" (CST) or \"velocity\" (CSV)"
                         .into(),
                 );
             }
             let Some(d) = &axis.cia402 else {
-                return err("cia402", "is needed with profile = \"cia402\"".into());
+                return err(CIA402, "is needed with profile = \"cia402\"".into());
             };
             if axis.cia401.is_some() {
-                return err("cia401", "belongs to profile = \"cia401\"".into());
+                return err(CIA401, "belongs to profile = \"cia401\"".into());
             }
-            positive("cia402.position_m_per_inc", d.position_m_per_inc)?;
-            positive(
-                "cia402.velocity_m_per_s_per_unit",
-                d.velocity_m_per_s_per_unit,
-            )?;
-            positive("cia402.dc_link_v_per_unit", d.dc_link_v_per_unit)?;
-            if let Some(t) = d.rated_torque_nm {
-                if !(t.is_finite() && t > 0.0) {
-                    return err("cia402.rated_torque_nm", format!("must be > 0, got {t}"));
-                }
-            }
-            if !(d.startup_timeout_s.is_finite() && d.startup_timeout_s > 0.0) {
-                return err("cia402.startup_timeout_s", "must be > 0".into());
-            }
+            d.check().map_err(within(CIA402))?;
         }
         ProfileKind::Cia401 => {
             if drive_command {
                 return err(
-                    "command",
+                    COMMAND,
                     "a CiA 401 module outputs \"voltage\" or \"duty\"".into(),
                 );
             }
             let Some(io) = &axis.cia401 else {
-                return err("cia401", "is needed with profile = \"cia401\"".into());
+                return err(CIA401, "is needed with profile = \"cia401\"".into());
             };
             if axis.cia402.is_some() {
-                return err("cia402", "belongs to profile = \"cia402\"".into());
+                return err(CIA402, "belongs to profile = \"cia402\"".into());
             }
-            channel("cia401.position_input", io.position_input)?;
-            positive("cia401.position_m_per_count", io.position_m_per_count)?;
-            channel("cia401.command_output", io.command_output)?;
-            positive("cia401.command_per_count", io.command_per_count)?;
+            io.check().map_err(within(CIA401))?;
+            // A wired channel needs its scale, and each input carries one quantity.
             let mut used = vec![io.position_input];
             for (key, ch, scale_key, scale) in [
                 (
-                    "cia401.current_input",
+                    crate::param_key!(Cia401Section, current_input),
                     io.current_input,
-                    "cia401.current_a_per_count",
+                    crate::param_key!(Cia401Section, current_a_per_count),
                     io.current_a_per_count,
                 ),
                 (
-                    "cia401.supply_input",
+                    crate::param_key!(Cia401Section, supply_input),
                     io.supply_input,
-                    "cia401.supply_per_count",
+                    crate::param_key!(Cia401Section, supply_per_count),
                     io.supply_per_count,
                 ),
             ] {
                 if let Some(ch) = ch {
-                    channel(key, ch)?;
-                    positive(scale_key, scale)?;
+                    if scale == 0.0 {
+                        return err(
+                            &format!("{CIA401}.{scale_key}"),
+                            format!("must be finite and non-zero, got {scale}"),
+                        );
+                    }
                     if used.contains(&ch) {
-                        return err(key, format!("analog input {ch} is already used"));
+                        return err(
+                            &format!("{CIA401}.{key}"),
+                            format!("analog input {ch} is already used"),
+                        );
                     }
                     used.push(ch);
                 }
-            }
-            if !(io.startup_timeout_s.is_finite() && io.startup_timeout_s > 0.0) {
-                return err("cia401.startup_timeout_s", "must be > 0".into());
             }
         }
     }

@@ -5,7 +5,7 @@
 //! and check the mode of operation and read the rated torque.
 
 use super::config::AxisConfig;
-use super::profile_config::{desired_pdos, drive_mode, ProfileKind};
+use super::profile_config::{desired_pdos, drive_mode, Cia402Section, ProfileKind};
 use super::profile_link::NodeLayout;
 use crate::bus::{Bus, BusError, BusEvent};
 use crate::canopen::od::ObjectId;
@@ -362,8 +362,10 @@ pub fn configure(bus: &mut dyn Bus, axis: &AxisConfig) -> Result<NodeLayout, Set
                     return Err(SetupError::Layout {
                         axis: s.axis.clone(),
                         reason: format!(
-                            "node {} reports a rated torque (6076h) of 0: set cia402.rated_torque_nm",
-                            s.node
+                            "node {} reports a rated torque (6076h) of 0: set {}.{}",
+                            s.node,
+                            crate::param_key!(AxisConfig, cia402),
+                            crate::param_key!(Cia402Section, rated_torque_nm)
                         ),
                     });
                 }

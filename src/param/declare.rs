@@ -8,10 +8,15 @@ use super::ParamError;
 /// When a declared parameter may change in a running node.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Access {
-    /// Part of the structure (a model, the poles): only by a restart; not in the dictionary.
+    /// Part of the structure (a model, the poles, a section as a whole): not in the dictionary,
+    /// so never written over SDO. A reload (SIGHUP) changes it and rebuilds the axis, except
+    /// what the node is built around (the bus, the node ids, an axis' command and profile, the
+    /// cycle period: `ControllerNode::swap_in` refuses those), which only a restart changes.
     Restart,
     /// Over SDO while the node is pre-operational, or by a reload.
     PreOperational,
+    /// By a reload; the dictionary shows it read-only (a table's points).
+    ReadOnly,
 }
 
 /// The value type of a declared parameter, as the dictionary carries it.
@@ -29,6 +34,10 @@ pub enum Kind {
     Path,
     /// A table of its own, checked by its own type (not in the dictionary).
     Table,
+    /// One of a few named values (not in the dictionary); see [`ParamSpec::choices`].
+    Choice,
+    /// Text (not in the dictionary).
+    Text,
 }
 
 /// What is declared about one parameter.
@@ -56,6 +65,19 @@ pub struct ParamSpec {
     /// What the range asks for in the words of an error ("> 0", "a node id in 1..=127"), where
     /// a section keeps the wording its users know; empty: worded from the range.
     pub words: &'static str,
+    /// An array shown in the dictionary one entry per point, with these names (`q0_per_m`,
+    /// `supply_0`...); empty: an array is not in the dictionary.
+    pub points: &'static [&'static str],
+    /// Points a write of zero to the last one keeps: trailing zeros are dropped down to this
+    /// length.
+    pub kept: usize,
+    /// The dictionary bounds the value by the axis' command range (±1 for a duty, ±1000
+    /// otherwise) rather than by `min` and `max`.
+    pub command_bound: bool,
+    /// The values a [`Kind::Choice`] key takes, as written in the file; empty otherwise.
+    pub choices: &'static [&'static str],
+    /// Zero is refused although the range holds it: a scale whose sign carries a direction.
+    pub nonzero: bool,
 }
 
 impl ParamSpec {
@@ -88,6 +110,21 @@ impl ParamSpec {
         }
     }
 
+    /// Which point of the array `name` is, if it is one of this key's points.
+    pub fn point(&self, name: &str) -> Option<usize> {
+        self.points.iter().position(|p| *p == name)
+    }
+
+    /// The values of a choice, as a documentation or an error lists them: "`a`, `b` or `c`".
+    pub fn choices_text(&self) -> String {
+        let quoted: Vec<String> = self.choices.iter().map(|c| format!("`{c}`")).collect();
+        match quoted.split_last() {
+            Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+            Some((last, _)) => last.clone(),
+            None => String::new(),
+        }
+    }
+
     /// `value` is within the declared range (each element of an array).
     pub fn check(&self, value: f64) -> Result<(), ParamError> {
         let integral = self.kind != Kind::Count || value.fract() == 0.0;
@@ -97,7 +134,8 @@ impl ParamSpec {
                 format!("must be finite, got {value} (leave the key out instead)"),
             ));
         }
-        if value.is_nan() || value < self.min || value > self.max || !integral {
+        let zero = self.nonzero && value == 0.0;
+        if value.is_nan() || value < self.min || value > self.max || !integral || zero {
             return Err(ParamError::new(
                 self.name,
                 format!("must be {}, got {value}", self.range_text()),
@@ -137,6 +175,18 @@ pub trait ParamValue: Sized {
     /// one number.
     fn from_value(_value: f64) -> Option<Self> {
         None
+    }
+    /// The values a choice takes, as written in the file; empty (the default) for the rest.
+    const CHOICES: &'static [&'static str] = &[];
+    /// Point `k` of an array, `None` past its end (and, the default, for what is not an array).
+    fn point(&self, _k: usize) -> Option<f64> {
+        None
+    }
+    /// Set point `k` of an array to `value` (already checked), growing it with zeros; trailing
+    /// zeros are then dropped down to `kept` points. False (the default) for what is not an
+    /// array that can grow.
+    fn set_point(&mut self, _k: usize, _value: f64, _kept: usize) -> bool {
+        false
     }
 }
 
@@ -213,6 +263,26 @@ impl ParamValue for Vec<f64> {
     fn each(&self, f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
         self.iter().try_for_each(|v| f(*v))
     }
+    fn point(&self, k: usize) -> Option<f64> {
+        self.get(k).copied()
+    }
+    fn set_point(&mut self, k: usize, value: f64, kept: usize) -> bool {
+        if self.len() <= k {
+            self.resize(k + 1, 0.0);
+        }
+        self[k] = value;
+        while self.len() > kept && self.last() == Some(&0.0) {
+            self.pop();
+        }
+        true
+    }
+}
+
+impl ParamValue for String {
+    const KIND: Kind = Kind::Text;
+    fn each(&self, _f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
+        Ok(())
+    }
 }
 
 impl ParamValue for std::path::PathBuf {
@@ -227,6 +297,10 @@ impl<T: ParamValue> ParamValue for Option<T> {
     const KIND: Kind = T::KIND;
     const BITS: u8 = T::BITS;
     const OPTIONAL: bool = true;
+    const CHOICES: &'static [&'static str] = T::CHOICES;
+    fn point(&self, k: usize) -> Option<f64> {
+        self.as_ref().and_then(|v| v.point(k))
+    }
     fn absent() -> Option<Self> {
         Some(None)
     }
@@ -271,7 +345,11 @@ pub trait Declared {
     /// The value of the scalar parameter `name`.
     fn get(&self, name: &str) -> Option<f64>;
 
-    /// Set the scalar parameter `name` to `value`, checked against its declaration.
+    /// Point `k` of the array `key` (`None` past its end, or when the key is left out).
+    fn point(&self, key: &str, k: usize) -> Option<f64>;
+
+    /// Set the scalar parameter `name`, or the point `name` of an array, to `value`, checked
+    /// against its declaration.
     fn set(&mut self, name: &str, value: f64) -> Result<(), ParamError>;
 
     /// Every value within its declared range; the error names the first that is not.
@@ -290,6 +368,10 @@ pub trait Declared {
 /// ...), known only when the dictionary is built for an axis.
 pub const COMMAND_UNIT: &str = "command";
 
+/// The unit a declared parameter gives as `COMMAND_PER_M_UNIT` is the axis' command unit per m
+/// (V/m, 1/m, ...), known only when the dictionary is built for an axis.
+pub const COMMAND_PER_M_UNIT: &str = "command/m";
+
 /// The unit a declared parameter gives as `FORCE_PER_COMMAND_UNIT` is the drive's force per
 /// command unit (N/V, N per unit duty, ...), known only when the dictionary is built for an
 /// axis.
@@ -301,7 +383,8 @@ pub const FORCE_PER_COMMAND_UNIT: &str = "N/command";
 /// `Option`: left out, it is `None`). `min` and `max` may be left out where the type bounds
 /// the value (a count's 0, a path); the side is then open. `words:` says in an error what the
 /// range asks for, where the wording derived from it ("a finite number > 0") would differ from
-/// the one a section's users already know ("> 0").
+/// the one a section's users already know ("> 0"). `nonzero: true` refuses zero within the
+/// range (a scale whose sign says the direction).
 ///
 /// ```ignore
 /// declare_section! {
@@ -328,6 +411,10 @@ macro_rules! declare_section {
                     access: $access:ident,
                     doc: $doc:literal
                     $(, words: $words:literal)?
+                    $(, points: [$($point:ident),* $(,)?])?
+                    $(, kept: $kept:expr)?
+                    $(, command_bound: $command_bound:expr)?
+                    $(, nonzero: $nonzero:expr)?
                     $(, absent: $absent:expr)?
                     $(, default: $default:expr)? $(,)?
                 }
@@ -349,15 +436,37 @@ macro_rules! declare_section {
                 struct Keys {
                     $( $field: Option<$ty>, )*
                 }
-                let keys = Keys::deserialize(d)?;
-                Ok($name {
-                    $(
-                        $field: match keys.$field {
-                            Some(v) => v,
-                            None => $crate::__declared_default!($field, $ty $(, $default)?),
-                        },
-                    )*
-                })
+                // A missing key is reported from within the table, as a derived struct's is,
+                // so that the format places it at this table and not at an enclosing one (an
+                // entry of an array of tables rather than the array's first).
+                struct Section;
+                impl<'de> serde::de::Visitor<'de> for Section {
+                    type Value = $name;
+                    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                        f.write_str("a table")
+                    }
+                    fn visit_map<A: serde::de::MapAccess<'de>>(
+                        self,
+                        map: A,
+                    ) -> Result<$name, A::Error> {
+                        let keys = <Keys as serde::Deserialize>::deserialize(
+                            serde::de::value::MapAccessDeserializer::new(map),
+                        )?;
+                        Ok($name {
+                            $(
+                                $field: match keys.$field {
+                                    Some(v) => v,
+                                    None => $crate::__declared_default!($field, $ty $(, $default)?),
+                                },
+                            )*
+                        })
+                    }
+                }
+                d.deserialize_struct(
+                    stringify!($name),
+                    &[$(stringify!($field)),*],
+                    Section,
+                )
             }
         }
 
@@ -387,6 +496,11 @@ macro_rules! declare_section {
                         access: $crate::param::Access::$access,
                         absent: $crate::__declared_or!(None $(, Some($absent))?),
                         words: $crate::__declared_or!("" $(, $words)?),
+                        points: $crate::__declared_or!(&[] $(, &[$(stringify!($point)),*])?),
+                        kept: $crate::__declared_or!(0 $(, $kept)?),
+                        command_bound: $crate::__declared_or!(false $(, $command_bound)?),
+                        choices: <$ty as $crate::param::ParamValue>::CHOICES,
+                        nonzero: $crate::__declared_or!(false $(, $nonzero)?),
                     },
                 )*
             ];
@@ -399,10 +513,40 @@ macro_rules! declare_section {
                 value.or_else(|| <Self as $crate::param::Declared>::spec(name)?.absent)
             }
 
+            fn point(&self, key: &str, k: usize) -> Option<f64> {
+                match key {
+                    $( stringify!($field) => $crate::param::ParamValue::point(&self.$field, k), )*
+                    _ => None,
+                }
+            }
+
             fn set(&mut self, name: &str, value: f64) -> Result<(), $crate::param::ParamError> {
-                let spec = <Self as $crate::param::Declared>::spec(name).ok_or_else(|| {
-                    $crate::param::ParamError::new("parameter", format!("no parameter {name}"))
-                })?;
+                let Some(spec) = <Self as $crate::param::Declared>::spec(name) else {
+                    // A point of an array: checked against the array's range.
+                    let mut i = 0;
+                    $(
+                        let spec = &<Self as $crate::param::Declared>::PARAMS[i];
+                        if let Some(k) = spec.point(name) {
+                            spec.check(value)?;
+                            return if $crate::param::ParamValue::set_point(
+                                &mut self.$field, k, value, spec.kept,
+                            ) {
+                                Ok(())
+                            } else {
+                                Err($crate::param::ParamError::new(
+                                    spec.name,
+                                    format!("cannot take {name}"),
+                                ))
+                            };
+                        }
+                        i += 1;
+                    )*
+                    let _ = i;
+                    return Err($crate::param::ParamError::new(
+                        "parameter",
+                        format!("no parameter {name}"),
+                    ));
+                };
                 if spec.absent.is_some() && value.is_infinite() {
                     // An infinite bound: "not watched", the key left out.
                     let cleared = match name {
@@ -521,42 +665,4 @@ macro_rules! param_key {
         }
         stringify!($field)
     }};
-}
-
-/// The names `<key>_0`, `<key>_1`, ... of the points of array key `$field` of section
-/// `$section` (a read-only view of a table in the dictionary), the key checked against the
-/// declaration like [`param_key!`]. `$field as $stem` names the points `<stem>_k` where the
-/// entries carry the unit themselves: the stem must begin the key (checked at compile time).
-#[macro_export]
-macro_rules! param_key_points {
-    ($section:ty, $field:ident, [$($i:literal),* $(,)?]) => {
-        $crate::param_key_points!($section, $field as $field, [$($i),*])
-    };
-    ($section:ty, $field:ident as $stem:ident, [$($i:literal),* $(,)?]) => {{
-        #[allow(dead_code)]
-        fn declared(section: &$section) {
-            let _ = &section.$field;
-        }
-        const _: () = assert!(
-            $crate::param::begins_with(stringify!($field), stringify!($stem)),
-            "the points' stem must begin the key"
-        );
-        [$(concat!(stringify!($stem), "_", $i)),*]
-    }};
-}
-
-/// `s` begins with `prefix` (usable in constants).
-pub const fn begins_with(s: &str, prefix: &str) -> bool {
-    let (s, p) = (s.as_bytes(), prefix.as_bytes());
-    if p.len() > s.len() {
-        return false;
-    }
-    let mut i = 0;
-    while i < p.len() {
-        if s[i] != p[i] {
-            return false;
-        }
-        i += 1;
-    }
-    true
 }

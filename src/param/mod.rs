@@ -73,9 +73,10 @@ pub fn cycles(time_s: f64, period_s: f64) -> u32 {
     ((time_s / period_s).round() as u32).max(1)
 }
 
+mod choice;
 mod declare;
 
 pub use declare::{
-    begins_with, Access, Declared, Kind, ParamSpec, ParamValue, COMMAND_UNIT,
+    Access, Declared, Kind, ParamSpec, ParamValue, COMMAND_PER_M_UNIT, COMMAND_UNIT,
     FORCE_PER_COMMAND_UNIT,
 };

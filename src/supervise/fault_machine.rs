@@ -46,16 +46,20 @@ impl SupervisedFault {
         1 << (self as u16)
     }
 
+    /// The fault's name: its reaction key in `[axis.fault_reactions]`, and the name the logs
+    /// and the DBC's value table give it.
     pub fn name(self) -> &'static str {
+        use super::FaultReactionsSection as R;
+        use crate::param_key;
         match self {
-            SupervisedFault::SpringPretension => "spring_pretension",
-            SupervisedFault::SpringStiffness => "spring_stiffness",
-            SupervisedFault::FrictionIncrease => "friction_increase",
-            SupervisedFault::CurrentGain => "current_gain",
-            SupervisedFault::ObserverFriction => "observer_friction",
-            SupervisedFault::EstimatorImplausible => "estimator_implausible",
-            SupervisedFault::LimitViolation => "limit_violation",
-            SupervisedFault::SensorOffset => "sensor_offset",
+            SupervisedFault::SpringPretension => param_key!(R, spring_pretension),
+            SupervisedFault::SpringStiffness => param_key!(R, spring_stiffness),
+            SupervisedFault::FrictionIncrease => param_key!(R, friction_increase),
+            SupervisedFault::CurrentGain => param_key!(R, current_gain),
+            SupervisedFault::ObserverFriction => param_key!(R, observer_friction),
+            SupervisedFault::EstimatorImplausible => param_key!(R, estimator_implausible),
+            SupervisedFault::LimitViolation => param_key!(R, limit_violation),
+            SupervisedFault::SensorOffset => param_key!(R, sensor_offset),
         }
     }
 }

@@ -9,6 +9,7 @@ pub use limits::{Band, LimitSupervisor, Limits, SupervisionInput, SupervisionOut
 pub use limits_section::LimitsSection;
 mod estimator_supervisor;
 mod fault_machine;
+mod fault_reactions_section;
 pub mod fault_table;
 mod observer;
 mod observer_section;
@@ -22,6 +23,7 @@ pub use fault_machine::{
     FaultMachine, FaultMachineConfig, FaultMachineOutput, FaultPolicy, Reaction, SupervisedFault,
     SupervisedFaults, SupervisionLevel,
 };
+pub use fault_reactions_section::{FaultReactionsSection, ReactionName};
 pub use fault_table::{FaultSymptomTable, FaultTableError, TableRow};
 pub use observer::{Deviation, DisturbanceObserver, ObserverConfig, ObserverOutput};
 pub use observer_section::ObserverSection;

@@ -14,7 +14,7 @@ use super::plant::{
     Direction,
 };
 use crate::daemon::config::{
-    AdaptiveFrictionSection, AxisConfig, CommandKind, Config, ControllerConfig,
+    AdaptiveFrictionSection, AxisConfig, CommandKind, Config, ControllerSection,
     FrictionCompensationSection, ObserverSection, ParameterEstimationSection, ScheduleSection,
 };
 use crate::param_key;
@@ -585,14 +585,14 @@ pub fn tune(
     );
     ed.set_list(
         CONTROLLER,
-        param_key!(ControllerConfig, q_per_m),
+        param_key!(ControllerSection, q_per_m),
         &controller.q,
         10,
         &design_text,
     );
     ed.set_list(
         CONTROLLER,
-        param_key!(ControllerConfig, p),
+        param_key!(ControllerSection, p),
         &controller.p,
         10,
         &design_text,
@@ -601,8 +601,8 @@ pub fn tune(
         keys(
             CONTROLLER,
             &[
-                param_key!(ControllerConfig, output_min),
-                param_key!(ControllerConfig, output_max),
+                param_key!(ControllerSection, output_min),
+                param_key!(ControllerSection, output_max),
             ],
         ),
         "the drive's limits, not the model's",

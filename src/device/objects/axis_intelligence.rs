@@ -19,7 +19,10 @@ use super::daemon_objects::Command;
 use crate::canopen::od::EntrySpec;
 use crate::canopen::od::{ObjectDictionaryBuilder, Value};
 use crate::control::{AdaptiveFrictionSection, ScheduleSection};
-use crate::param::{Access as ParamAccess, Declared, Kind, COMMAND_UNIT, FORCE_PER_COMMAND_UNIT};
+use crate::param::{
+    Access as ParamAccess, Declared, Kind, ParamSpec, COMMAND_PER_M_UNIT, COMMAND_UNIT,
+    FORCE_PER_COMMAND_UNIT,
+};
 use crate::supervise::{ObserverSection, ParameterEstimationSection};
 
 /// Offsets inside an axis block (see `daemon_objects::index`).
@@ -28,21 +31,6 @@ pub const OBSERVER: u16 = 0x07;
 pub const PARAMETER_ESTIMATION: u16 = 0x08;
 pub const SCHEDULE: u16 = 0x09;
 pub const DIAGNOSIS: u16 = 0x11;
-
-/// Most schedule points the dictionary shows.
-pub const MAX_SCHEDULE_POINTS: usize = 8;
-
-/// `[axis.schedule]`: supply points and the scheduled values at each.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ScheduleParameters {
-    /// The supply is a pressure (Pa) rather than a voltage (V).
-    pub supply_is_pressure: bool,
-    pub supply: Vec<f64>,
-    /// `gain_factor`, or `drive_gain_down_m_per_s` and `drive_gain_up_m_per_s`, per point.
-    pub gain_factor: Option<Vec<f64>>,
-    pub drive_gain_down_m_per_s: Option<Vec<f64>>,
-    pub drive_gain_up_m_per_s: Option<Vec<f64>>,
-}
 
 /// What an axis has of the intelligent sections.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -53,7 +41,8 @@ pub struct IntelligenceParameters {
     pub observer: Option<ObserverSection>,
     /// `[axis.parameter_estimation]`: its windows and symptom settings, as declared.
     pub estimation: Option<ParameterEstimationSection>,
-    pub schedule: Option<ScheduleParameters>,
+    /// `[axis.schedule]`: its points, read-only, as declared.
+    pub schedule: Option<ScheduleSection>,
 }
 
 /// Names of the physical parameters, as estimate and nominal entries.
@@ -83,56 +72,66 @@ pub const BAND_NAMES: [&str; 4] = [
     "observer_x4_neg_high_m",
 ];
 
-const SUPPLY_NAMES: [&str; MAX_SCHEDULE_POINTS] = [
-    "supply_0", "supply_1", "supply_2", "supply_3", "supply_4", "supply_5", "supply_6", "supply_7",
-];
-/// The schedule's columns, point by point, named after their keys (the drive gains without
-/// their unit, which the entries carry).
-const FACTOR_NAMES: [&str; MAX_SCHEDULE_POINTS] =
-    crate::param_key_points!(ScheduleSection, gain_factor, [0, 1, 2, 3, 4, 5, 6, 7]);
-const DOWN_NAMES: [&str; MAX_SCHEDULE_POINTS] = crate::param_key_points!(
-    ScheduleSection,
-    drive_gain_down_m_per_s as drive_gain_down,
-    [0, 1, 2, 3, 4, 5, 6, 7]
-);
-const UP_NAMES: [&str; MAX_SCHEDULE_POINTS] = crate::param_key_points!(
-    ScheduleSection,
-    drive_gain_up_m_per_s as drive_gain_up,
-    [0, 1, 2, 3, 4, 5, 6, 7]
-);
-
 /// The entries of a declared section: its parameters writable in pre-operational, with the
 /// declared unit (the axis' command unit, or force per command unit, where declared so), range
-/// and line of documentation, in declaration order.
+/// and line of documentation, in declaration order. An array declared with points gives one
+/// entry per point: every slot when writable (0 where the array is shorter), the values it has
+/// when read-only. Read-only entries carry no range.
 pub(super) fn declared_entries<S: Declared>(section: &S, command: Command) -> Vec<EntrySpec> {
-    S::PARAMS
-        .iter()
-        .filter(|p| p.access == ParamAccess::PreOperational)
-        .filter_map(|p| {
-            let v = section.get(p.name)?;
-            let side = |x: f64, f: fn(f64) -> Value| x.is_finite().then(|| f(x));
-            let e = match (p.kind, p.bits) {
-                (Kind::Real, _) => EntrySpec::rw_preop(p.name, v).between(p.min, p.max),
-                // The declared range keeps a count within its entry; a larger value shows
-                // saturated.
-                (Kind::Count, 8) => EntrySpec::rw_preop(p.name, v as u8).range(
-                    side(p.min, |x| Value::Unsigned8(x as u8)),
-                    side(p.max, |x| Value::Unsigned8(x as u8)),
-                ),
-                (Kind::Count, _) => EntrySpec::rw_preop(p.name, v as u32).range(
-                    side(p.min, |x| Value::Unsigned32(x as u32)),
-                    side(p.max, |x| Value::Unsigned32(x as u32)),
-                ),
-                (Kind::Array | Kind::Flag | Kind::Path | Kind::Table, _) => return None,
-            };
-            let unit = match p.unit {
-                COMMAND_UNIT => command.unit(),
-                FORCE_PER_COMMAND_UNIT => command.force_per_command(),
-                unit => unit,
-            };
-            Some(e.unit(unit).doc(p.doc))
-        })
-        .collect()
+    let unit = |unit: &'static str| match unit {
+        COMMAND_UNIT => command.unit(),
+        COMMAND_PER_M_UNIT => command.per_m(),
+        FORCE_PER_COMMAND_UNIT => command.force_per_command(),
+        unit => unit,
+    };
+    let mut entries = Vec::new();
+    for p in S::PARAMS {
+        let writable = match p.access {
+            ParamAccess::PreOperational => true,
+            ParamAccess::ReadOnly => false,
+            ParamAccess::Restart => continue,
+        };
+        if !p.points.is_empty() {
+            for (k, name) in p.points.iter().enumerate() {
+                let e = match (section.point(p.name, k), writable) {
+                    (v, true) => EntrySpec::rw_preop(name, v.unwrap_or(0.0)).between(p.min, p.max),
+                    (Some(v), false) => EntrySpec::ro(name, v),
+                    (None, false) => break,
+                };
+                entries.push(e.unit(unit(p.unit)).doc(p.doc));
+            }
+            continue;
+        }
+        if let Some(e) = declared_entry(section, p, command) {
+            entries.push(e.unit(unit(p.unit)).doc(p.doc));
+        }
+    }
+    entries
+}
+
+/// The entry of one declared scalar, writable in pre-operational, within its declared range
+/// (or the command's, where declared so); `None` for what the dictionary does not carry.
+fn declared_entry<S: Declared>(section: &S, p: &ParamSpec, command: Command) -> Option<EntrySpec> {
+    let v = section.get(p.name)?;
+    let side = |x: f64, f: fn(f64) -> Value| x.is_finite().then(|| f(x));
+    Some(match (p.kind, p.bits) {
+        (Kind::Real, _) if p.command_bound => {
+            EntrySpec::rw_preop(p.name, v).between(-command.bound(), command.bound())
+        }
+        (Kind::Real, _) => EntrySpec::rw_preop(p.name, v).between(p.min, p.max),
+        // The declared range keeps a count within its entry; a larger value shows saturated.
+        (Kind::Count, 8) => EntrySpec::rw_preop(p.name, v as u8).range(
+            side(p.min, |x| Value::Unsigned8(x as u8)),
+            side(p.max, |x| Value::Unsigned8(x as u8)),
+        ),
+        (Kind::Count, _) => EntrySpec::rw_preop(p.name, v as u32).range(
+            side(p.min, |x| Value::Unsigned32(x as u32)),
+            side(p.max, |x| Value::Unsigned32(x as u32)),
+        ),
+        (Kind::Array | Kind::Flag | Kind::Path | Kind::Table | Kind::Choice | Kind::Text, _) => {
+            return None
+        }
+    })
 }
 
 /// Add the intelligent-section objects of axis `i` (indices from `at(offset)`).
@@ -169,22 +168,11 @@ pub fn intelligence_objects(
         );
     }
     if let Some(s) = &p.schedule {
-        let supply_unit = if s.supply_is_pressure { "Pa" } else { "V" };
-        let n = s.supply.len().min(MAX_SCHEDULE_POINTS);
+        let (_, supply) = s.variable();
+        let shown = ScheduleSection::PARAMS.iter().map(|p| p.points.len()).max();
+        let n = supply.len().min(shown.unwrap_or(0));
         let mut entries = vec![EntrySpec::ro("points", n as u8)];
-        for (k, v) in s.supply.iter().take(n).enumerate() {
-            entries.push(EntrySpec::ro(SUPPLY_NAMES[k], *v).unit(supply_unit));
-        }
-        let columns = [
-            (&s.gain_factor, &FACTOR_NAMES, ""),
-            (&s.drive_gain_down_m_per_s, &DOWN_NAMES, "m/s"),
-            (&s.drive_gain_up_m_per_s, &UP_NAMES, "m/s"),
-        ];
-        for (column, names, unit) in columns {
-            for (k, v) in column.iter().flatten().take(n).enumerate() {
-                entries.push(EntrySpec::ro(names[k], *v).unit(unit));
-            }
-        }
+        entries.extend(declared_entries(s, command));
         b = b.record(at(SCHEDULE), format!("axis{i}_schedule"), axis, entries);
     }
     let mut diagnosis: Vec<EntrySpec> = ESTIMATE_NAMES

@@ -25,7 +25,7 @@ use super::axis_intelligence::{declared_entries, intelligence_objects, Intellige
 use crate::canopen::od::{
     BuildError, EntrySpec, ObjectDictionary, ObjectDictionaryBuilder, ObjectId, Value,
 };
-use crate::control::FrictionCompensationSection;
+use crate::control::{ControllerSection, FrictionCompensationSection};
 use crate::supervise::LimitsSection;
 
 /// Manufacturer blocks are 100h apart from 2000h; 2F00h is node-wide, so 15 axes fit.
@@ -132,6 +132,15 @@ impl Command {
         }
     }
 
+    /// The largest magnitude of a command value: 1 for a duty, 1000 (V, N m, m/s) otherwise.
+    pub fn bound(self) -> f64 {
+        if self == Command::Duty {
+            1.0
+        } else {
+            1000.0
+        }
+    }
+
     /// The unit of a command value.
     pub fn unit(self) -> &'static str {
         match self {
@@ -175,12 +184,8 @@ pub struct AxisParameters {
     pub initial_setpoint_m: f64,
     /// Rate limit of the reference, m/s; infinite = steps.
     pub setpoint_rate_max_m_per_s: f64,
-    /// q_0..q_5 (unused ones 0), command unit per m.
-    pub q_per_m: [f64; 6],
-    /// p_1..p_6 (unused ones 0).
-    pub p: [f64; 6],
-    pub output_min: f64,
-    pub output_max: f64,
+    /// `[axis.controller]`: its coefficients and output limits, as declared.
+    pub controller: ControllerSection,
     /// `[axis.friction_compensation]`, if configured: its entries, as declared.
     pub friction_compensation: Option<FrictionCompensationSection>,
     /// `[axis.limits]`: its entries, as declared.
@@ -197,10 +202,7 @@ impl Default for AxisParameters {
             safe_command: 0.0,
             initial_setpoint_m: 0.0,
             setpoint_rate_max_m_per_s: f64::INFINITY,
-            q_per_m: [0.0; 6],
-            p: [0.0; 6],
-            output_min: -1.0,
-            output_max: 1.0,
+            controller: ControllerSection::unconfigured(-1.0, 1.0),
             friction_compensation: None,
             limits: LimitsSection::defaults()
                 .expect("every key of [axis.limits] has a default or may be left out"),
@@ -209,24 +211,9 @@ impl Default for AxisParameters {
     }
 }
 
-/// Bounds of a command output: ±1000 V for a voltage, ±1 for a duty.
-fn command_bound(a: &AxisParameters) -> f64 {
-    if a.command == Command::Duty {
-        1.0
-    } else {
-        1000.0
-    }
-}
-
-/// Coefficients are refused beyond this magnitude (and when not finite).
-const COEFFICIENT_BOUND: f64 = 1e12;
 /// Smallest value of a quantity that must be > 0.
 const POSITIVE_MIN: f64 = 1e-9;
 
-const Q_NAMES: [&str; 6] = [
-    "q0_per_m", "q1_per_m", "q2_per_m", "q3_per_m", "q4_per_m", "q5_per_m",
-];
-const P_NAMES: [&str; 6] = ["p1", "p2", "p3", "p4", "p5", "p6"];
 const AXIS_NAMES: [&str; MAX_AXES] = [
     "axis0", "axis1", "axis2", "axis3", "axis4", "axis5", "axis6", "axis7", "axis8", "axis9",
     "axis10", "axis11", "axis12", "axis13", "axis14",
@@ -385,40 +372,14 @@ fn axis_objects(
 ) -> Result<ObjectDictionaryBuilder, BuildError> {
     let at = |offset| index::axis(i, offset);
     let axis = Some(i);
-    let c = command_bound(a);
+    let c = a.command.bound();
     let cu = a.command.unit();
     let name = Value::string(&a.name).ok_or_else(|| BuildError::BadEntry {
         id: ObjectId::new(at(index::AXIS), 1),
         name: "axis_name",
         problem: format!("{:?} is not printable ASCII of at most 64 bytes", a.name),
     })?;
-    let mut controller: Vec<EntrySpec> = Q_NAMES
-        .iter()
-        .zip(a.q_per_m)
-        .map(|(n, q)| {
-            EntrySpec::rw_preop(n, q)
-                .unit(a.command.per_m())
-                .between(-COEFFICIENT_BOUND, COEFFICIENT_BOUND)
-                .doc("numerator coefficient q_j of u(k) = -sum p_i u(k-i) + sum q_j e(k-j)")
-        })
-        .collect();
-    controller.extend(P_NAMES.iter().zip(a.p).map(|(n, p)| {
-        EntrySpec::rw_preop(n, p)
-            .between(-COEFFICIENT_BOUND, COEFFICIENT_BOUND)
-            .doc("denominator coefficient p_i (without the leading 1)")
-    }));
-    controller.push(
-        EntrySpec::rw_preop("output_min", a.output_min)
-            .unit(cu)
-            .between(-c, c)
-            .doc("lower output limit"),
-    );
-    controller.push(
-        EntrySpec::rw_preop("output_max", a.output_max)
-            .unit(cu)
-            .between(-c, c)
-            .doc("upper output limit"),
-    );
+    let controller = declared_entries(&a.controller, a.command);
     let limits = declared_entries(&a.limits, a.command);
     let learned = vec![
         EntrySpec::ro("friction_compensation", 0.0f64)

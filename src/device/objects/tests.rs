@@ -8,10 +8,13 @@ const OP: NmtState = NmtState::Operational;
 fn solenoid() -> AxisParameters {
     AxisParameters {
         name: "solenoid".into(),
-        q_per_m: [2231.0, -4204.0, 2000.0, 0.0, 0.0, 0.0],
-        p: [-1.616, 0.616, 0.0, 0.0, 0.0, 0.0],
-        output_min: 0.0,
-        output_max: 24.0,
+        controller: crate::control::ControllerSection {
+            q_per_m: vec![2231.0, -4204.0, 2000.0],
+            p: vec![-1.616, 0.616],
+            output_min: 0.0,
+            output_max: 24.0,
+            ..AxisParameters::default().controller
+        },
         initial_setpoint_m: 0.005,
         limits: crate::supervise::LimitsSection {
             position_min_m: Some(-0.0005),
@@ -175,9 +178,9 @@ fn command_entries_carry_the_unit_of_the_axis_command() {
         // Within a duty's bounds, so that every command kind takes them.
         let mut axis = AxisParameters {
             command,
-            output_max: 1.0,
             ..solenoid()
         };
+        axis.controller.output_max = 1.0;
         axis.intelligence.adaptive_friction = Some(adaptive.clone());
         let od = daemon_dictionary(&DeviceParameters::default(), &[axis]).expect("fits");
         let unit_of = |name: &str| {
