@@ -11,6 +11,7 @@
 //! |---|---|
 //! | [`data`] | CSV and MCAP data sets, column mapping, errors with file/row/column |
 //! | [`model`] | model files (`config/models/*.toml`) and `--family F --with a,b` |
+//! | [`params`] | a model's parameters named once in code and resolved to handles; an unknown name is an error |
 //! | [`command`] | what the `u` column is (`--command`), per family |
 //! | [`signals`] | zero-phase filtering and derivatives for the regression |
 //! | [`drive`] | the drive constants the data determine, and the declared ones they contradict |
@@ -35,6 +36,7 @@ pub mod discover;
 pub mod drive;
 pub mod methods;
 pub mod model;
+pub mod params;
 pub mod regimes;
 pub mod regress;
 pub mod regress_gear;

@@ -147,25 +147,24 @@ pub fn representable(family: Family, kind: EffectKind, d: &Prepared) -> bool {
     }
 }
 
-pub(super) fn p(spec: &PlantSpec, name: &str) -> f64 {
-    spec.get(name).unwrap_or(0.0)
+/// Value of the parameter `name` (qualified, with its unit suffix); a name the model does not
+/// have is an error naming it and the line that asked.
+#[track_caller]
+pub(super) fn p(spec: &PlantSpec, name: &str) -> anyhow::Result<f64> {
+    Ok(super::params::by_name(spec, name)?.value)
 }
 
-pub(super) fn param_term(spec: &PlantSpec, name: &str, col: Vec<f64>) -> Term {
-    let (free, bounds) = spec
-        .params()
-        .into_iter()
-        .find(|(n, _)| n == name)
-        .map_or((false, (f64::NEG_INFINITY, f64::INFINITY)), |(_, p)| {
-            (p.free, (p.def.min, p.def.max))
-        });
-    Term {
-        name: name.to_string(),
-        free,
-        value: p(spec, name),
-        bounds,
+/// The term of the parameter `name` with the column `col`.
+#[track_caller]
+pub(super) fn param_term(spec: &PlantSpec, name: &str, col: Vec<f64>) -> anyhow::Result<Term> {
+    let h = super::params::by_name(spec, name)?;
+    Ok(Term {
+        name: h.name,
+        free: h.free,
+        value: h.value,
+        bounds: h.bounds,
         col,
-    }
+    })
 }
 
 pub(super) fn fixed_term(name: &str, col: Vec<f64>) -> Term {
@@ -180,20 +179,20 @@ pub(super) fn fixed_term(name: &str, col: Vec<f64>) -> Term {
 
 /// Supply over its nominal value, `S / S_nom` (voltage) or `(P_atm - P) / (P_atm - P_nom)`
 /// (pneumatic low pressure), per sample; 1 when no supply was recorded.
-pub(super) fn supply_ratio(spec: &PlantSpec, raw: &Dataset) -> Vec<f64> {
+pub(super) fn supply_ratio(spec: &PlantSpec, raw: &Dataset) -> anyhow::Result<Vec<f64>> {
     let fam = spec.family.name();
-    match (&raw.supply, spec.family) {
+    Ok(match (&raw.supply, spec.family) {
         (None, _) => vec![1.0; raw.len()],
         (Some(s), Family::Pneumatic) => {
-            let atm = p(spec, "pneumatic.atmosphere_pa");
-            let nom = p(spec, "pneumatic.supply_pressure_pa");
+            let atm = p(spec, "pneumatic.atmosphere_pa")?;
+            let nom = p(spec, "pneumatic.supply_pressure_pa")?;
             s.iter().map(|x| (atm - x) / (atm - nom)).collect()
         }
         (Some(s), _) => {
-            let nom = p(spec, &format!("{fam}.supply_voltage_v"));
+            let nom = p(spec, &format!("{fam}.supply_voltage_v"))?;
             s.iter().map(|x| x / nom).collect()
         }
-    }
+    })
 }
 
 /// Coefficient of the pneumatic chamber's coupling `m/τ` over its declared value, fitted when
@@ -209,10 +208,10 @@ fn is_free(spec: &PlantSpec, name: &str) -> bool {
 }
 
 /// Command after dead time, saturation and dead zone (the order of the power stage), per sample.
-pub(super) fn shaped_command(spec: &PlantSpec, raw: &Dataset, dt: f64) -> Vec<f64> {
+pub(super) fn shaped_command(spec: &PlantSpec, raw: &Dataset, dt: f64) -> anyhow::Result<Vec<f64>> {
     let mut u = raw.input.clone();
     if spec.effects.iter().any(|e| e.kind == EffectKind::DeadTime) {
-        let shift = (p(spec, "dead_time.delay_s") / dt).round() as usize;
+        let shift = (p(spec, "dead_time.delay_s")? / dt).round() as usize;
         if shift > 0 {
             let first = u[0];
             let mut shifted = vec![first; shift.min(u.len())];
@@ -226,8 +225,8 @@ pub(super) fn shaped_command(spec: &PlantSpec, raw: &Dataset, dt: f64) -> Vec<f6
         .any(|e| e.kind == EffectKind::Saturation)
     {
         let unit = spec.command.suffix_and_unit().0;
-        let lo = p(spec, &format!("saturation.min{unit}"));
-        let hi = p(spec, &format!("saturation.max{unit}"));
+        let lo = p(spec, &format!("saturation.min{unit}"))?;
+        let hi = p(spec, &format!("saturation.max{unit}"))?;
         for x in &mut u {
             // u' = min(max(u, u_min), u_max)
             *x = x.max(lo).min(hi);
@@ -235,7 +234,7 @@ pub(super) fn shaped_command(spec: &PlantSpec, raw: &Dataset, dt: f64) -> Vec<f6
     }
     if spec.effects.iter().any(|e| e.kind == EffectKind::Deadzone) {
         let key = format!("deadzone.threshold{}", spec.command.suffix_and_unit().0);
-        let u0 = p(spec, &key);
+        let u0 = p(spec, &key)?;
         for x in &mut u {
             *x = if *x > u0 {
                 *x - u0
@@ -246,7 +245,7 @@ pub(super) fn shaped_command(spec: &PlantSpec, raw: &Dataset, dt: f64) -> Vec<f6
             };
         }
     }
-    u
+    Ok(u)
 }
 
 /// A drive force held over each sample (zero-order hold), moved to the instant of the
@@ -286,18 +285,20 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
     } else {
         body_drive_terms(spec, raw, d, &mut terms, &mut nonlinear)?;
     }
-    let dry_scale = dry_scale(spec, raw, &mut nonlinear);
-    load_terms(spec, d, dry_scale.as_deref(), &mut terms, &mut nonlinear);
+    let dry_scale = dry_scale(spec, raw, &mut nonlinear)?;
+    load_terms(spec, d, dry_scale.as_deref(), &mut terms, &mut nonlinear)?;
     let n = d.y.len();
     let index = (0..n).filter(|&k| d.valid[k]).collect();
     let stiction = spec.effects.iter().any(|e| e.kind == EffectKind::Stiction);
     let fsx = force_suffix(spec);
-    let breakaway = stiction.then(|| {
-        (
-            p(spec, &format!("stiction.breakaway_pos{fsx}")),
-            p(spec, &format!("stiction.breakaway_neg{fsx}")),
-        )
-    });
+    let breakaway = if stiction {
+        Some((
+            p(spec, &format!("stiction.breakaway_pos{fsx}"))?,
+            p(spec, &format!("stiction.breakaway_neg{fsx}"))?,
+        ))
+    } else {
+        None
+    };
     let breakaway_free = stiction
         && spec
             .params()
@@ -321,23 +322,23 @@ fn dry_scale(
     spec: &PlantSpec,
     raw: &Dataset,
     nonlinear: &mut Vec<(String, f64)>,
-) -> Option<Vec<f64>> {
+) -> anyhow::Result<Option<Vec<f64>>> {
     let effect = spec
         .effects
         .iter()
         .any(|e| e.kind == EffectKind::SupplyFriction);
     if !effect || raw.supply.is_none() {
-        return None;
+        return Ok(None);
     }
-    let kappa = p(spec, "supply_friction.exponent");
+    let kappa = p(spec, "supply_friction.exponent")?;
     nonlinear.push(("supply_friction.exponent".to_string(), kappa));
     let f = crate::physics::effects::SupplyFriction { exponent: kappa };
-    Some(
-        supply_ratio(spec, raw)
+    Ok(Some(
+        supply_ratio(spec, raw)?
             .into_iter()
             .map(|r| f.factor(r))
             .collect(),
-    )
+    ))
 }
 
 /// Largest acceleration at rest, as a fraction of the 95 % quantile of `|a|`.
@@ -390,12 +391,12 @@ fn body_drive_terms(
             .collect();
     // Inertia.
     let inertia = terms.len();
-    terms.push(param_term(spec, &f("mass_kg"), d.a.clone()));
+    terms.push(param_term(spec, &f("mass_kg"), d.a.clone())?);
     // The drive signal D and its gain K.
-    let ratio = supply_ratio(spec, raw);
-    let u = shaped_command(spec, raw, d.dt);
+    let ratio = supply_ratio(spec, raw)?;
+    let u = shaped_command(spec, raw, d.dt)?;
     let kappa = if has(EffectKind::SupplyGain) {
-        let k = p(spec, "supply_gain.exponent");
+        let k = p(spec, "supply_gain.exponent")?;
         nonlinear.push(("supply_gain.exponent".to_string(), k));
         Some(k)
     } else {
@@ -412,19 +413,19 @@ fn body_drive_terms(
             } else {
                 name.to_string()
             };
-            nonlinear.push((full.clone(), p(spec, &full)));
+            nonlinear.push((full.clone(), p(spec, &full)?));
         }
     }
     if has(EffectKind::Saturation) {
         let unit = spec.command.suffix_and_unit().0;
         for side in ["max", "min"] {
             let key = format!("saturation.{side}{unit}");
-            nonlinear.push((key.clone(), p(spec, &key)));
+            nonlinear.push((key.clone(), p(spec, &key)?));
         }
     }
     let (gain, drive_raw): (f64, Vec<f64>) = match spec.family {
         Family::LinearAxis if spec.command == CommandUnit::Volt => {
-            let vs = p(spec, &f("supply_voltage_v"));
+            let vs = p(spec, &f("supply_voltage_v"))?;
             let sig = u
                 .iter()
                 .zip(&ratio)
@@ -433,18 +434,18 @@ fn body_drive_terms(
                     None => x.clamp(-vs * r, vs * r),
                 })
                 .collect();
-            (p(spec, &f("force_gain_n_per_v")), held_force(sig))
+            (p(spec, &f("force_gain_n_per_v"))?, held_force(sig))
         }
         Family::LinearAxis => (1.0, held_force(u.clone())),
         Family::Solenoid => {
-            let k_mag = p(spec, &f("force_constant_n_per_a"));
+            let k_mag = p(spec, &f("force_constant_n_per_a"))?;
             match &raw.current {
                 Some(i) => (k_mag, i.clone()),
                 None => {
                     // Current loop `T_I I' + I = K_I U`, exact for U held over a sample.
-                    let vs = p(spec, &f("supply_voltage_v"));
-                    let ti = p(spec, &f("current_time_constant_s"));
-                    let ki = p(spec, &f("current_gain_a_per_v"));
+                    let vs = p(spec, &f("supply_voltage_v"))?;
+                    let ti = p(spec, &f("current_time_constant_s"))?;
+                    let ki = p(spec, &f("current_gain_a_per_v"))?;
                     let beta = 1.0 - (-d.dt / ti).exp();
                     let mut i = 0.0;
                     let sig = u
@@ -466,7 +467,7 @@ fn body_drive_terms(
         }
         Family::Pneumatic => {
             // Valves: v_c = K_I1 d (d < 0) or K_I2 d (d > 0), times (S/S_nom)^κ.
-            let c = p(spec, &f("mass_kg")) / p(spec, &f("velocity_time_constant_s"));
+            let c = p(spec, &f("mass_kg"))? / p(spec, &f("velocity_time_constant_s"))?;
             let declared = |name: &str| !is_free(spec, &f(name));
             let from_data = !declared("gain_down_m_per_s") && !declared("gain_up_m_per_s");
             // The duty is held over each sample like a drive force: taken at the instant of the
@@ -489,12 +490,12 @@ fn body_drive_terms(
                 spec,
                 &f("gain_down_m_per_s"),
                 zero_phase(&down, fc, dt),
-            ));
+            )?);
             terms.push(param_term(
                 spec,
                 &f("gain_up_m_per_s"),
                 zero_phase(&up, fc, dt),
-            ));
+            )?);
             let compliance: Vec<f64> = d.v.iter().map(|v| c * v).collect();
             if from_data && !has(EffectKind::Viscous) {
                 // Drive constants not given and no viscous damping beside the chamber: the
@@ -535,8 +536,8 @@ fn body_drive_terms(
         let base = zero_phase(&drive_raw, fc, dt);
         let (g_pos, g_neg) = if has(EffectKind::DirectionAsymmetry) {
             (
-                p(spec, "direction_asymmetry.gain_pos"),
-                p(spec, "direction_asymmetry.gain_neg"),
+                p(spec, "direction_asymmetry.gain_pos")?,
+                p(spec, "direction_asymmetry.gain_neg")?,
             )
         } else {
             (1.0, 1.0)
@@ -545,18 +546,18 @@ fn body_drive_terms(
             let y0 = p(
                 spec,
                 &format!("position_stiffness.pole{}", pos_suffix(spec)),
-            );
+            )?;
             Some((
                 y0,
-                p(spec, "position_stiffness.c0"),
+                p(spec, "position_stiffness.c0")?,
                 p(
                     spec,
                     &format!("position_stiffness.c1{}", per_pos_suffix(spec, 1)),
-                ),
+                )?,
                 p(
                     spec,
                     &format!("position_stiffness.c2{}", per_pos_suffix(spec, 2)),
-                ),
+                )?,
             ))
         } else {
             None
@@ -589,7 +590,7 @@ fn body_drive_terms(
                         }
                     })
                     .collect(),
-            ));
+            )?);
         } else {
             terms.push(fixed_term(
                 "drive",
@@ -605,17 +606,17 @@ fn body_drive_terms(
                 (0..n)
                     .map(|k| -gain * base[k] * gdir(k) * (y0 - d.y[k]))
                     .collect(),
-            ));
+            )?);
             terms.push(param_term(
                 spec,
                 &c2,
                 (0..n)
                     .map(|k| -gain * base[k] * gdir(k) * (y0 - d.y[k]).powi(2))
                     .collect(),
-            ));
+            )?);
         }
         if has(EffectKind::Hysteresis) {
-            let w = p(spec, &format!("hysteresis.width{}", force_suffix(spec)));
+            let w = p(spec, &format!("hysteresis.width{}", force_suffix(spec)))?;
             nonlinear.push((format!("hysteresis.width{}", force_suffix(spec)), w));
             // Play on the unfiltered drive force, then filtered like every other column.
             let full: Vec<f64> = (0..n)
@@ -650,7 +651,7 @@ fn load_terms(
     dry_scale: Option<&[f64]>,
     terms: &mut Vec<Term>,
     nonlinear: &mut Vec<(String, f64)>,
-) {
+) -> anyhow::Result<()> {
     let n = d.y.len();
     let has = |k: EffectKind| spec.effects.iter().any(|e| e.kind == k);
     // Resisting forces.
@@ -667,12 +668,12 @@ fn load_terms(
             spec,
             &format!("viscous.damping_pos{fs}"),
             one(&|k| if d.v[k] > 0.0 { d.v[k] } else { 0.0 }),
-        ));
+        )?);
         terms.push(param_term(
             spec,
             &format!("viscous.damping_neg{fs}"),
             one(&|k| if d.v[k] < 0.0 { d.v[k] } else { 0.0 }),
-        ));
+        )?);
     }
     let fsx = force_suffix(spec);
     if has(EffectKind::Coulomb) {
@@ -680,17 +681,17 @@ fn load_terms(
             spec,
             &format!("coulomb.coulomb_pos{fsx}"),
             dry(&|k| if d.v[k] > 0.0 { 1.0 } else { 0.0 }),
-        ));
+        )?);
         terms.push(param_term(
             spec,
             &format!("coulomb.coulomb_neg{fsx}"),
             dry(&|k| if d.v[k] < 0.0 { -1.0 } else { 0.0 }),
-        ));
+        )?);
     }
     if has(EffectKind::Stribeck) {
         let vs = velocity_suffix(spec);
-        let vp = p(spec, &format!("stribeck.velocity_pos{vs}"));
-        let vn = p(spec, &format!("stribeck.velocity_neg{vs}"));
+        let vp = p(spec, &format!("stribeck.velocity_pos{vs}"))?;
+        let vn = p(spec, &format!("stribeck.velocity_neg{vs}"))?;
         nonlinear.push((format!("stribeck.velocity_pos{vs}"), vp));
         terms.push(param_term(
             spec,
@@ -702,7 +703,7 @@ fn load_terms(
                     0.0
                 }
             }),
-        ));
+        )?);
         terms.push(param_term(
             spec,
             &format!("stribeck.excess_neg{fsx}"),
@@ -713,36 +714,37 @@ fn load_terms(
                     0.0
                 }
             }),
-        ));
+        )?);
     }
     if has(EffectKind::Spring) {
         terms.push(param_term(
             spec,
             &format!("spring.stiffness{}", stiffness_suffix(spec)),
             d.y.clone(),
-        ));
+        )?);
         terms.push(param_term(
             spec,
             &format!("spring.pretension{fsx}"),
             vec![1.0; n],
-        ));
+        )?);
     }
     if has(EffectKind::Payload) {
-        let full = p(spec, &format!("payload.full_scale{}", pos_suffix(spec)));
+        let full = p(spec, &format!("payload.full_scale{}", pos_suffix(spec)))?;
         nonlinear.push((format!("payload.full_scale{}", pos_suffix(spec)), full));
         terms.push(param_term(
             spec,
             &format!("payload.max_load{fsx}"),
             d.y.iter().map(|y| (y / full).clamp(-1.0, 1.0)).collect(),
-        ));
+        )?);
     }
     if has(EffectKind::Offset) {
         terms.push(param_term(
             spec,
             &format!("offset.bias{fsx}"),
             vec![-1.0; n],
-        ));
+        )?);
     }
+    Ok(())
 }
 
 pub(super) fn force_suffix(spec: &PlantSpec) -> &'static str {
@@ -1133,13 +1135,13 @@ pub fn grid_for(
     kind: EffectKind,
     d: &Prepared,
     raw: &Dataset,
-) -> Vec<(String, Vec<f64>)> {
+) -> anyhow::Result<Vec<(String, Vec<f64>)>> {
     let geom = |lo: f64, hi: f64, n: usize| -> Vec<f64> {
         (0..n)
             .map(|i| lo * (hi / lo).powf(i as f64 / (n - 1) as f64))
             .collect()
     };
-    match kind {
+    Ok(match kind {
         EffectKind::Stribeck => {
             let vmax = abs_quantile(&d.v, 0.95).max(1e-12);
             vec![(
@@ -1154,10 +1156,10 @@ pub fn grid_for(
                     raw.current
                         .as_ref()
                         .map_or(umax * 0.1, |i| abs_quantile(i, 0.95))
-                        * p(spec, "solenoid.force_constant_n_per_a")
+                        * p(spec, "solenoid.force_constant_n_per_a")?
                 }
                 Family::LinearAxis if spec.command == CommandUnit::Volt => {
-                    umax * p(spec, "linear_axis.force_gain_n_per_v")
+                    umax * p(spec, "linear_axis.force_gain_n_per_v")?
                 }
                 _ => umax,
             };
@@ -1234,7 +1236,7 @@ pub fn grid_for(
             vec![(format!("varying_ratio.max_angle{}", pos_suffix(spec)), g)]
         }
         _ => Vec::new(),
-    }
+    })
 }
 
 /// Time constant of a solenoid's coil, when the current is not recorded: the drive of the
@@ -1280,15 +1282,11 @@ pub fn fit_spec(
     let mut extra = 0;
     let is_free =
         |spec: &PlantSpec, name: &str| spec.params().iter().any(|(n, p)| n == name && p.free);
-    let mut grids: Vec<(String, Vec<f64>)> = drive_grid(&spec, d, raw)
-        .into_iter()
-        .chain(
-            spec.effects
-                .iter()
-                .flat_map(|e| grid_for(&spec, e.kind, d, raw)),
-        )
-        .filter(|(name, _)| is_free(&spec, name))
-        .collect();
+    let mut grids: Vec<(String, Vec<f64>)> = drive_grid(&spec, d, raw);
+    for e in &spec.effects {
+        grids.extend(grid_for(&spec, e.kind, d, raw)?);
+    }
+    grids.retain(|(name, _)| is_free(&spec, name));
     grids.dedup_by(|a, b| a.0 == b.0);
     if spec
         .effects
@@ -1498,7 +1496,7 @@ mod tests {
         s.set("saturation.max_n", 5.0).expect("max");
         s.set("saturation.min_n", -5.0).expect("min");
         s.set("deadzone.threshold_n", 1.0).expect("threshold");
-        let u = shaped_command(&s, &data(vec![0.5, 8.0, -3.0, 0.2, 0.0]), 1e-3);
+        let u = shaped_command(&s, &data(vec![0.5, 8.0, -3.0, 0.2, 0.0]), 1e-3).expect("shaped");
         // Delayed by two samples (the first held), clipped to ±5, then 1 N taken off.
         assert_eq!(u, vec![0.0, 0.0, 0.0, 4.0, -2.0]);
     }
