@@ -15,6 +15,7 @@
 //! | [`command`] | what the `u` column is (`--command`), per family |
 //! | [`signals`] | zero-phase filtering and derivatives for the regression |
 //! | [`drive`] | the drive constants the data determine, and the declared ones they contradict |
+//! | [`effects`] | each effect's lab side, one file each: when representable, columns, grid, power stage, evidence |
 //! | [`regress`] | inverse-dynamics regression: the balance of forces, linear in its parameters |
 //! | [`regress_gear`] | the same for `motor_gear`: the load balance with the torque the gear transmits |
 //! | [`compare`] | prediction modes and the fit / NRMSE / RMSE of a model |
@@ -34,6 +35,7 @@ pub mod data;
 pub mod diagnose;
 pub mod discover;
 pub mod drive;
+pub mod effects;
 pub mod methods;
 pub mod model;
 pub mod params;

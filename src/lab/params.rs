@@ -96,8 +96,8 @@ impl Key {
         Ok(self.resolve(spec)?.value)
     }
 
-    /// Its qualified name in a model of `family` with the command `spec.command`, e.g.
-    /// `stiction.breakaway_pos_n`, without looking at the values.
+    /// Its qualified name in `spec` (the unit suffix follows the family and the command), e.g.
+    /// `stiction.breakaway_pos_n`.
     #[track_caller]
     pub fn name(self, spec: &PlantSpec) -> anyhow::Result<String> {
         Ok(self.resolve(spec)?.name)

@@ -39,42 +39,12 @@ pub fn drive_terms(
     raw: &Dataset,
     d: &Prepared,
     terms: &mut Vec<Term>,
-    nonlinear: &mut Vec<(String, f64)>,
 ) -> anyhow::Result<()> {
     terms.push(param_term(
         spec,
         "motor_gear.load_inertia_kg_m2",
         d.a.clone(),
     )?);
-    let pos = pos_suffix(spec);
-    for (kind, key) in [
-        (EffectKind::Backlash, format!("backlash.gap{pos}")),
-        (
-            EffectKind::VaryingRatio,
-            format!("varying_ratio.max_angle{pos}"),
-        ),
-        (EffectKind::SupplyGain, "supply_gain.exponent".to_string()),
-        (EffectKind::DeadTime, "dead_time.delay_s".to_string()),
-    ] {
-        if spec.effects.iter().any(|e| e.kind == kind) {
-            nonlinear.push((key.clone(), p(spec, &key)?));
-        }
-    }
-    let unit = spec.command.suffix_and_unit().0;
-    if spec.effects.iter().any(|e| e.kind == EffectKind::Deadzone) {
-        let key = format!("deadzone.threshold{unit}");
-        nonlinear.push((key.clone(), p(spec, &key)?));
-    }
-    if spec
-        .effects
-        .iter()
-        .any(|e| e.kind == EffectKind::Saturation)
-    {
-        for side in ["max", "min"] {
-            let key = format!("saturation.{side}{unit}");
-            nonlinear.push((key.clone(), p(spec, &key)?));
-        }
-    }
     let tau = transmitted_torque(spec, raw, d.dt)?;
     let filtered = zero_phase(&tau, d.cutoff_hz, d.dt);
     terms.push(fixed_term(
