@@ -23,16 +23,6 @@ use crate::physics::{CommandUnit, EffectKind, PlantSpec};
 /// 20 Hz and the armature's `L_a / R_a` of 0.3 ms (integrated exactly).
 const SUBSTEPS: usize = 10;
 
-/// Effects the `motor_gear` form can represent beyond the load-side ones of every family.
-/// With a measured current, what acts before the armature is invisible.
-pub fn representable(kind: EffectKind, d: &Prepared) -> bool {
-    use EffectKind as E;
-    matches!(kind, E::Backlash | E::VaryingRatio)
-        || (d.current.is_none()
-            && (matches!(kind, E::Deadzone | E::DeadTime | E::Saturation)
-                || kind == E::SupplyGain && d.supply.is_some()))
-}
-
 /// Inertia and transmitted-torque terms of the load balance.
 pub fn drive_terms(
     spec: &PlantSpec,

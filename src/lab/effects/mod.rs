@@ -269,6 +269,63 @@ mod tests {
         assert_eq!(stages.len(), n);
     }
 
+    /// Every parameter an effect's lab side names exists in a model with that effect, on every
+    /// family that supports it: the balance, the grids and the evidence are built without error.
+    #[test]
+    fn every_lab_side_finds_its_parameters_on_every_family() {
+        use crate::lab::regress::{balance, grid_for};
+        let n = 2000;
+        let time: Vec<f64> = (0..n).map(|k| k as f64 * 1e-3).collect();
+        let wave = |f: f64, a: f64| time.iter().map(|t| a * (f * t).sin()).collect::<Vec<f64>>();
+        for family in [
+            Family::LinearAxis,
+            Family::Solenoid,
+            Family::Pneumatic,
+            Family::MotorGear,
+        ] {
+            let supply_nominal = match family {
+                Family::Pneumatic => 60_000.0,
+                _ => 24.0,
+            };
+            let raw = Dataset {
+                origin: "t".into(),
+                time: time.clone(),
+                input: wave(7.0, 0.5),
+                output: wave(3.0, 0.01),
+                supply: Some(
+                    wave(1.0, 0.1 * supply_nominal)
+                        .iter()
+                        .map(|x| x + supply_nominal)
+                        .collect(),
+                ),
+                current: None,
+            };
+            let d = crate::lab::signals::prepare(&raw, None);
+            for &kind in EffectKind::ALL {
+                if !kind.supported_by(family) {
+                    continue;
+                }
+                let lab = of(kind).expect("lab side");
+                if !lab.representable(family, &d) {
+                    continue;
+                }
+                let spec = PlantSpec::new(family).with_effect(kind).expect("supported");
+                let bal = balance(&spec, &raw, &d)
+                    .unwrap_or_else(|e| panic!("{family} with {kind}: {e:#}"));
+                grid_for(&spec, kind, &d, &raw)
+                    .unwrap_or_else(|e| panic!("{family} with {kind}: grid: {e:#}"));
+                let fit = bal.evaluate();
+                let ev = Evidence {
+                    base: &fit,
+                    data: &raw,
+                    d: &d,
+                    unit: "N",
+                };
+                assert!(!lab.evidence(&ev).is_empty(), "{family} with {kind}");
+            }
+        }
+    }
+
     #[test]
     fn correlation_of_proportional_and_opposite_series() {
         let x: Vec<f64> = (0..50).map(|k| (k as f64 * 0.3).sin()).collect();
