@@ -10,6 +10,7 @@
 use serde::Serialize;
 
 use super::data::Dataset;
+use super::effects::{self, Evidence};
 use super::model::Model;
 use super::regress::{balance, fit_spec, representable, IdFit};
 use super::signals::Prepared;
@@ -84,270 +85,16 @@ pub struct Diagnosis {
     pub not_assessed: Vec<String>,
 }
 
-/// Effects the lab can diagnose from the balance of forces (stiction from the samples at rest,
-/// backlash and varying_ratio from the `motor_gear` load balance).
-pub const CATALOGUE: &[EffectKind] = &[
-    EffectKind::Viscous,
-    EffectKind::Coulomb,
-    EffectKind::Stiction,
-    EffectKind::Stribeck,
-    EffectKind::Spring,
-    EffectKind::PositionStiffness,
-    EffectKind::Hysteresis,
-    EffectKind::DirectionAsymmetry,
-    EffectKind::Deadzone,
-    EffectKind::SupplyGain,
-    EffectKind::SupplyFriction,
-    EffectKind::DeadTime,
-    EffectKind::Saturation,
-    EffectKind::Payload,
-    EffectKind::Offset,
-    EffectKind::Backlash,
-    EffectKind::VaryingRatio,
-];
-
-fn corr(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len().min(b.len()).max(1) as f64;
-    let ma = a.iter().sum::<f64>() / n;
-    let mb = b.iter().sum::<f64>() / n;
-    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
-    for (x, y) in a.iter().zip(b) {
-        sab += (x - ma) * (y - mb);
-        saa += (x - ma) * (x - ma);
-        sbb += (y - mb) * (y - mb);
-    }
-    if saa > 0.0 && sbb > 0.0 {
-        sab / (saa * sbb).sqrt()
-    } else {
-        0.0
-    }
-}
-
-fn mean_where(r: &[f64], idx: &[usize], sel: impl Fn(usize) -> bool) -> (f64, usize) {
-    let mut s = 0.0;
-    let mut n = 0;
-    for (i, &k) in idx.iter().enumerate() {
-        if sel(k) {
-            s += r[i];
-            n += 1;
-        }
-    }
-    (if n > 0 { s / n as f64 } else { 0.0 }, n)
-}
-
-/// The signature of `kind` in the residual `base` of the model without it.
+/// The signature of `kind` in the residual `base` of the model without it, as its lab side
+/// describes it ([`super::effects`]).
 fn evidence(kind: EffectKind, base: &IdFit, data: &Dataset, d: &Prepared, unit: &str) -> String {
-    let r = &base.residual;
-    let idx = &base.index;
-    let sd = (r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64).sqrt();
-    let at = |f: &dyn Fn(usize) -> f64| idx.iter().map(|&k| f(k)).collect::<Vec<f64>>();
-    let eps = d.v_standstill;
-    match kind {
-        EffectKind::Coulomb | EffectKind::DirectionAsymmetry if kind == EffectKind::Coulomb => {
-            let (p, _) = mean_where(r, idx, |k| d.v[k] > 0.0);
-            let (m, _) = mean_where(r, idx, |k| d.v[k] < 0.0);
-            format!(
-                "residual steps with the sign of velocity: mean {p:+.3e} {unit} moving positive, \
-                 {m:+.3e} moving negative (step {:.1} residual RMS)",
-                (p - m).abs() / sd.max(f64::MIN_POSITIVE)
-            )
-        }
-        EffectKind::Viscous => format!(
-            "residual grows with velocity: correlation with v {:+.2}",
-            corr(r, &at(&|k| d.v[k]))
-        ),
-        EffectKind::Stribeck => {
-            let (lo, _) = mean_where(r, idx, |k| d.v[k].abs() < 4.0 * eps);
-            let (hi, _) = mean_where(r, idx, |k| d.v[k].abs() >= 4.0 * eps);
-            let lo_s = corr(r, &at(&|k| d.v[k].signum() * (-(d.v[k].abs() / (4.0 * eps))).exp()));
-            format!(
-                "residual peaks at low speed with the sign of velocity: correlation with \
-                 sign(v) e^(-|v|/v_S) {lo_s:+.2} (mean {lo:+.3e} slow, {hi:+.3e} fast)"
-            )
-        }
-        EffectKind::Spring => format!(
-            "residual structured by position: correlation with y {:+.2}",
-            corr(r, &at(&|k| d.y[k]))
-        ),
-        EffectKind::Payload => {
-            // A load that saturates: the position slope of the residual differs inside and out.
-            let ys = at(&|k| d.y[k].abs());
-            let mid = super::signals::abs_quantile(&ys, 0.5);
-            let part = |inner: bool| {
-                let (rr, yy): (Vec<f64>, Vec<f64>) = idx
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, &k)| (d.y[k].abs() < mid) == inner)
-                    .map(|(i, &k)| (r[i], d.y[k]))
-                    .unzip();
-                corr(&rr, &yy)
-            };
-            format!(
-                "residual bends with position: correlation with y {:+.2} for |y| below its median, {:+.2} above",
-                part(true),
-                part(false)
-            )
-        }
-        EffectKind::Stiction => {
-            let held = base.standstill_residual.iter().filter(|x| **x != 0.0).count();
-            let (up, down) = base
-                .standstill_residual
-                .iter()
-                .fold((0.0f64, 0.0f64), |(a, b), &x| (a.max(x), b.max(-x)));
-            format!(
-                "held at rest beyond the sliding friction: {held} of {} samples at rest need more, up to {up:.3e} {unit} positive and {down:.3e} negative over the band [-{:.3e}, {:.3e}]",
-                base.standstill.len(),
-                base.band.1,
-                base.band.0
-            )
-        }
-        EffectKind::Saturation => {
-            let q = super::signals::abs_quantile(&data.input, 0.9);
-            let (hi, _) = mean_where(
-                &at(&|k| data.input[k].signum()).iter().zip(r).map(|(s, x)| s * x).collect::<Vec<_>>(),
-                idx,
-                |k| data.input[k].abs() > q,
-            );
-            let (lo, _) = mean_where(
-                &at(&|k| data.input[k].signum()).iter().zip(r).map(|(s, x)| s * x).collect::<Vec<_>>(),
-                idx,
-                |k| data.input[k].abs() <= q,
-            );
-            format!(
-                "drive falls short at large commands: mean residual times sign(u) {hi:+.3e} {unit} where |u| is in its top 10 %, {lo:+.3e} elsewhere"
-            )
-        }
-        EffectKind::Backlash => {
-            // Reversals of the drive signal; the play decouples the load just after them.
-            let drive = d.current.as_ref().unwrap_or(&d.u);
-            let window = (0.05 / d.dt).ceil() as usize;
-            let mut since = vec![usize::MAX; drive.len()];
-            let mut last: Option<usize> = None;
-            for k in 1..drive.len() {
-                if drive[k].signum() != drive[k - 1].signum() {
-                    last = Some(k);
-                }
-                if let Some(l) = last {
-                    since[k] = k - l;
-                }
-            }
-            let rms = |sel: &dyn Fn(usize) -> bool| {
-                let (s, m) = idx
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, &k)| sel(k))
-                    .fold((0.0, 0usize), |(s, m), (i, _)| (s + r[i] * r[i], m + 1));
-                (s / m.max(1) as f64).sqrt()
-            };
-            format!(
-                "residual bursts after drive reversals: RMS {:.3e} {unit} within 50 ms after one, {:.3e} elsewhere",
-                rms(&|k| since[k] < window),
-                rms(&|k| since[k] >= window)
-            )
-        }
-        EffectKind::VaryingRatio => {
-            let drive = d.current.as_ref().unwrap_or(&d.u);
-            format!(
-                "drive gain grows with the load angle: correlation of the residual with (1/cos θ - 1)·D {:+.2}",
-                corr(r, &at(&|k| (1.0 / d.y[k].cos() - 1.0) * drive[k]))
-            )
-        }
-        EffectKind::PositionStiffness => {
-            let drive = d.current.as_ref().unwrap_or(&d.u);
-            format!(
-                "residual structured by position times drive: correlation with y·D {:+.2}, with y \
-                 {:+.2}",
-                corr(r, &at(&|k| d.y[k] * drive[k])),
-                corr(r, &at(&|k| d.y[k]))
-            )
-        }
-        EffectKind::Hysteresis => {
-            let du: Vec<f64> = {
-                let drive = d.current.as_ref().unwrap_or(&d.u);
-                idx.iter()
-                    .map(|&k| if k > 0 { drive[k] - drive[k - 1] } else { 0.0 })
-                    .collect()
-            };
-            let up = mean_where(&du.iter().map(|x| x.signum()).collect::<Vec<_>>(), &(0..idx.len()).collect::<Vec<_>>(), |_| true).0;
-            let _ = up;
-            let mut s = (0.0, 0usize, 0.0, 0usize);
-            for (i, x) in du.iter().enumerate() {
-                if *x > 0.0 {
-                    s.0 += r[i];
-                    s.1 += 1;
-                } else if *x < 0.0 {
-                    s.2 += r[i];
-                    s.3 += 1;
-                }
-            }
-            format!(
-                "residual follows the sign of the drive change: mean {:+.3e} {unit} while it rises, \
-                 {:+.3e} while it falls",
-                s.0 / s.1.max(1) as f64,
-                s.2 / s.3.max(1) as f64
-            )
-        }
-        EffectKind::DirectionAsymmetry => {
-            let neg = corr(
-                &idx.iter().enumerate().filter(|(_, &k)| d.v[k] < 0.0).map(|(i, _)| r[i]).collect::<Vec<_>>(),
-                &idx.iter().filter(|&&k| d.v[k] < 0.0).map(|&k| d.u[k]).collect::<Vec<_>>(),
-            );
-            let pos = corr(
-                &idx.iter().enumerate().filter(|(_, &k)| d.v[k] > 0.0).map(|(i, _)| r[i]).collect::<Vec<_>>(),
-                &idx.iter().filter(|&&k| d.v[k] > 0.0).map(|&k| d.u[k]).collect::<Vec<_>>(),
-            );
-            format!(
-                "drive gain differs by direction: correlation of residual with the command \
-                 {pos:+.2} moving positive, {neg:+.2} moving negative"
-            )
-        }
-        EffectKind::Deadzone => format!(
-            "residual follows the sign of the command: correlation with sign(u) {:+.2}",
-            corr(r, &at(&|k| data.input[k].signum()))
-        ),
-        EffectKind::SupplyGain => match &d.supply {
-            Some(s) => format!(
-                "residual structured by supply: correlation with supply·u {:+.2}, with supply {:+.2}",
-                corr(r, &at(&|k| s[k] * d.u[k])),
-                corr(r, &at(&|k| s[k]))
-            ),
-            None => "no supply recorded".into(),
-        },
-        EffectKind::SupplyFriction => match &d.supply {
-            Some(s) => {
-                // The friction the residual carries, signed as the friction opposing motion.
-                let fr = at(&|k| d.v[k].signum());
-                let rf: Vec<f64> = r.iter().zip(&fr).map(|(x, g)| x * g).collect();
-                let sup = at(&|k| s[k]);
-                let mut sorted = sup.clone();
-                sorted.sort_by(f64::total_cmp);
-                let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
-                let (hi, _) = mean_where(&rf, idx, |k| s[k] > median);
-                let (lo, _) = mean_where(&rf, idx, |k| s[k] <= median);
-                format!(
-                    "friction in the residual follows the supply: residual times sign(v) correlates \
-                     {:+.2} with the supply, mean {hi:+.3e} {unit} above its median, {lo:+.3e} below",
-                    corr(&rf, &sup)
-                )
-            }
-            None => "no supply recorded".into(),
-        },
-        EffectKind::DeadTime => format!(
-            "residual follows the command's rate: correlation with du/dt {:+.2}",
-            corr(
-                r,
-                &at(&|k| if k > 0 { d.u[k] - d.u[k - 1] } else { 0.0 })
-            )
-        ),
-        EffectKind::Offset => {
-            let (m, _) = mean_where(r, idx, |_| true);
-            format!(
-                "residual has a constant part: mean {m:+.3e} {unit} ({:.1} residual RMS)",
-                m.abs() / sd.max(f64::MIN_POSITIVE)
-            )
-        }
-        _ => String::new(),
-    }
+    let ev = Evidence {
+        base,
+        data,
+        d,
+        unit,
+    };
+    effects::of(kind).map_or_else(|_| String::new(), |e| e.evidence(&ev))
 }
 
 /// Parameters an effect declares (a spring whose stiffness ends at zero is still a spring, not a
@@ -413,7 +160,7 @@ pub fn diagnose(
         if !k.supported_by(family) || model.has(k) {
             continue;
         }
-        if CATALOGUE.contains(&k) && representable(family, k, d) {
+        if representable(family, k, d) {
             kinds.push(k);
         } else {
             not_assessed.push(k.name().to_string());
@@ -637,24 +384,6 @@ mod tests {
         let a = bic_delta(10.0, 3, 8.0, 5, 500.0);
         let b = bic_delta(1e-6, 3, 8e-7, 5, 500.0);
         assert!((a - b).abs() < 1e-9);
-    }
-
-    #[test]
-    fn correlation_of_proportional_and_opposite_series() {
-        let x: Vec<f64> = (0..50).map(|k| (k as f64 * 0.3).sin()).collect();
-        let y: Vec<f64> = x.iter().map(|v| 3.0 * v + 1.0).collect();
-        let z: Vec<f64> = x.iter().map(|v| -v).collect();
-        assert!((corr(&x, &y) - 1.0).abs() < 1e-12);
-        assert!((corr(&x, &z) + 1.0).abs() < 1e-12);
-        assert_eq!(corr(&x, &[1.0; 50]), 0.0);
-    }
-
-    #[test]
-    fn mean_where_counts_the_selected_samples() {
-        let r = [1.0, 2.0, 3.0, 4.0];
-        let idx = [10, 11, 12, 13];
-        assert_eq!(mean_where(&r, &idx, |k| k >= 12), (3.5, 2));
-        assert_eq!(mean_where(&r, &idx, |_| false), (0.0, 0));
     }
 
     #[test]

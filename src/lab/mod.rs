@@ -11,9 +11,11 @@
 //! |---|---|
 //! | [`data`] | CSV and MCAP data sets, column mapping, errors with file/row/column |
 //! | [`model`] | model files (`config/models/*.toml`) and `--family F --with a,b` |
+//! | [`params`] | a model's parameters named once in code and resolved to handles; an unknown name is an error |
 //! | [`command`] | what the `u` column is (`--command`), per family |
 //! | [`signals`] | zero-phase filtering and derivatives for the regression |
 //! | [`drive`] | the drive constants the data determine, and the declared ones they contradict |
+//! | [`effects`] | each effect's lab side, one file each: when representable, columns, grid, power stage, evidence |
 //! | [`regress`] | inverse-dynamics regression: the balance of forces, linear in its parameters |
 //! | [`regress_gear`] | the same for `motor_gear`: the load balance with the torque the gear transmits |
 //! | [`compare`] | prediction modes and the fit / NRMSE / RMSE of a model |
@@ -33,8 +35,10 @@ pub mod data;
 pub mod diagnose;
 pub mod discover;
 pub mod drive;
+pub mod effects;
 pub mod methods;
 pub mod model;
+pub mod params;
 pub mod regimes;
 pub mod regress;
 pub mod regress_gear;

@@ -28,6 +28,8 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::data::Dataset;
+use super::effects::{self, direction_asymmetry, hysteresis, position_stiffness, supply_gain, Cx};
+use super::params::Handle;
 use super::signals::{abs_quantile, zero_phase, Prepared};
 use crate::ident::least_squares;
 use crate::physics::{CommandUnit, EffectKind, Family, PlantSpec};
@@ -45,6 +47,40 @@ pub struct Term {
     pub bounds: (f64, f64),
     /// Column `φ_j(k)` over all samples.
     pub col: Vec<f64>,
+    /// The dry friction level the coefficient is, if it is one: such terms take what holds the
+    /// body at rest, and their sum per direction is the breakaway band.
+    pub dry: Option<Dry>,
+}
+
+/// The direction of a dry friction level.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Dry {
+    /// Positive motion.
+    Pos,
+    /// Negative motion.
+    Neg,
+}
+
+impl Term {
+    /// The term of a model parameter with the column `col`.
+    pub fn param(h: Handle, col: Vec<f64>) -> Term {
+        Term {
+            name: h.name,
+            free: h.free,
+            value: h.value,
+            bounds: h.bounds,
+            col,
+            dry: None,
+        }
+    }
+
+    /// The same term, marked as the dry friction level of direction `side`.
+    pub fn dry(self, side: Dry) -> Term {
+        Term {
+            dry: Some(side),
+            ..self
+        }
+    }
 }
 
 /// The balance of forces of a model on a data set.
@@ -64,6 +100,8 @@ pub struct Balance {
     /// True when the breakaway levels are free: the fit sets them to the largest holding force
     /// seen at rest.
     pub breakaway_free: bool,
+    /// Qualified names of the breakaway levels `(S_+, S_-)`, when the model has them.
+    pub breakaway_names: Option<(String, String)>,
     /// Corner (Hz) and sample period (s) of the smoothing of the friction demanded at rest.
     pub rest_filter: (f64, f64),
     /// Factor of the dry friction levels per sample when they follow the supply
@@ -110,62 +148,23 @@ pub struct IdFit {
 }
 
 /// Effects the inverse-dynamics regression can represent for a family, given which signals were
-/// recorded (with a measured coil current, what acts before the coil is invisible).
+/// recorded (with a measured coil current, what acts before the coil is invisible): each
+/// effect's lab side says ([`super::effects`]).
 pub fn representable(family: Family, kind: EffectKind, d: &Prepared) -> bool {
-    use EffectKind as E;
-    let common = matches!(
-        kind,
-        E::Viscous | E::Coulomb | E::Stribeck | E::Stiction | E::Spring | E::Offset | E::Payload
-    );
-    match family {
-        Family::LinearAxis => {
-            common
-                || matches!(
-                    kind,
-                    E::PositionStiffness
-                        | E::Hysteresis
-                        | E::DirectionAsymmetry
-                        | E::Deadzone
-                        | E::DeadTime
-                        | E::Saturation
-                )
-                || matches!(kind, E::SupplyGain | E::SupplyFriction) && d.supply.is_some()
-        }
-        Family::Solenoid => {
-            common
-                || matches!(kind, E::PositionStiffness | E::Hysteresis)
-                || (d.current.is_none()
-                    && (matches!(kind, E::Deadzone | E::DeadTime | E::Saturation)
-                        || kind == E::SupplyGain && d.supply.is_some()))
-        }
-        Family::Pneumatic => {
-            common
-                || matches!(kind, E::Deadzone | E::DeadTime | E::Saturation)
-                || matches!(kind, E::SupplyGain | E::SupplyFriction) && d.supply.is_some()
-        }
-        Family::MotorGear => common || super::regress_gear::representable(kind, d),
-    }
+    effects::of(kind).is_ok_and(|e| e.representable(family, d))
 }
 
-pub(super) fn p(spec: &PlantSpec, name: &str) -> f64 {
-    spec.get(name).unwrap_or(0.0)
+/// Value of the parameter `name` (qualified, with its unit suffix); a name the model does not
+/// have is an error naming it and the line that asked.
+#[track_caller]
+pub(super) fn p(spec: &PlantSpec, name: &str) -> anyhow::Result<f64> {
+    Ok(super::params::by_name(spec, name)?.value)
 }
 
-pub(super) fn param_term(spec: &PlantSpec, name: &str, col: Vec<f64>) -> Term {
-    let (free, bounds) = spec
-        .params()
-        .into_iter()
-        .find(|(n, _)| n == name)
-        .map_or((false, (f64::NEG_INFINITY, f64::INFINITY)), |(_, p)| {
-            (p.free, (p.def.min, p.def.max))
-        });
-    Term {
-        name: name.to_string(),
-        free,
-        value: p(spec, name),
-        bounds,
-        col,
-    }
+/// The term of the parameter `name` with the column `col`.
+#[track_caller]
+pub(super) fn param_term(spec: &PlantSpec, name: &str, col: Vec<f64>) -> anyhow::Result<Term> {
+    Ok(Term::param(super::params::by_name(spec, name)?, col))
 }
 
 pub(super) fn fixed_term(name: &str, col: Vec<f64>) -> Term {
@@ -175,25 +174,26 @@ pub(super) fn fixed_term(name: &str, col: Vec<f64>) -> Term {
         value: 1.0,
         bounds: (1.0, 1.0),
         col,
+        dry: None,
     }
 }
 
 /// Supply over its nominal value, `S / S_nom` (voltage) or `(P_atm - P) / (P_atm - P_nom)`
 /// (pneumatic low pressure), per sample; 1 when no supply was recorded.
-pub(super) fn supply_ratio(spec: &PlantSpec, raw: &Dataset) -> Vec<f64> {
+pub(super) fn supply_ratio(spec: &PlantSpec, raw: &Dataset) -> anyhow::Result<Vec<f64>> {
     let fam = spec.family.name();
-    match (&raw.supply, spec.family) {
+    Ok(match (&raw.supply, spec.family) {
         (None, _) => vec![1.0; raw.len()],
         (Some(s), Family::Pneumatic) => {
-            let atm = p(spec, "pneumatic.atmosphere_pa");
-            let nom = p(spec, "pneumatic.supply_pressure_pa");
+            let atm = p(spec, "pneumatic.atmosphere_pa")?;
+            let nom = p(spec, "pneumatic.supply_pressure_pa")?;
             s.iter().map(|x| (atm - x) / (atm - nom)).collect()
         }
         (Some(s), _) => {
-            let nom = p(spec, &format!("{fam}.supply_voltage_v"));
+            let nom = p(spec, &format!("{fam}.supply_voltage_v"))?;
             s.iter().map(|x| x / nom).collect()
         }
-    }
+    })
 }
 
 /// Coefficient of the pneumatic chamber's coupling `m/τ` over its declared value, fitted when
@@ -209,44 +209,16 @@ fn is_free(spec: &PlantSpec, name: &str) -> bool {
 }
 
 /// Command after dead time, saturation and dead zone (the order of the power stage), per sample.
-pub(super) fn shaped_command(spec: &PlantSpec, raw: &Dataset, dt: f64) -> Vec<f64> {
+pub(super) fn shaped_command(spec: &PlantSpec, raw: &Dataset, dt: f64) -> anyhow::Result<Vec<f64>> {
     let mut u = raw.input.clone();
-    if spec.effects.iter().any(|e| e.kind == EffectKind::DeadTime) {
-        let shift = (p(spec, "dead_time.delay_s") / dt).round() as usize;
-        if shift > 0 {
-            let first = u[0];
-            let mut shifted = vec![first; shift.min(u.len())];
-            shifted.extend_from_slice(&u[..u.len().saturating_sub(shift)]);
-            u = shifted;
-        }
+    let mut stages: Vec<_> = effects::present(spec)
+        .filter_map(|e| e.command_stage().map(|at| (at, e)))
+        .collect();
+    stages.sort_by_key(|(at, _)| *at);
+    for (_, e) in stages {
+        e.shape_command(spec, &mut u, dt)?;
     }
-    if spec
-        .effects
-        .iter()
-        .any(|e| e.kind == EffectKind::Saturation)
-    {
-        let unit = spec.command.suffix_and_unit().0;
-        let lo = p(spec, &format!("saturation.min{unit}"));
-        let hi = p(spec, &format!("saturation.max{unit}"));
-        for x in &mut u {
-            // u' = min(max(u, u_min), u_max)
-            *x = x.max(lo).min(hi);
-        }
-    }
-    if spec.effects.iter().any(|e| e.kind == EffectKind::Deadzone) {
-        let key = format!("deadzone.threshold{}", spec.command.suffix_and_unit().0);
-        let u0 = p(spec, &key);
-        for x in &mut u {
-            *x = if *x > u0 {
-                *x - u0
-            } else if *x < -u0 {
-                *x + u0
-            } else {
-                0.0
-            };
-        }
-    }
-    u
+    Ok(u)
 }
 
 /// A drive force held over each sample (zero-order hold), moved to the instant of the
@@ -279,30 +251,34 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
             );
         }
     }
+    let cx = Cx { spec, raw, d };
     let mut terms = Vec::new();
-    let mut nonlinear = Vec::new();
     if spec.family == Family::MotorGear {
-        super::regress_gear::drive_terms(spec, raw, d, &mut terms, &mut nonlinear)?;
+        super::regress_gear::drive_terms(spec, raw, d, &mut terms)?;
     } else {
-        body_drive_terms(spec, raw, d, &mut terms, &mut nonlinear)?;
+        body_drive_terms(spec, raw, d, &mut terms)?;
     }
-    let dry_scale = dry_scale(spec, raw, &mut nonlinear);
-    load_terms(spec, d, dry_scale.as_deref(), &mut terms, &mut nonlinear);
+    // The resisting forces on the moving body (the load of `motor_gear`), each effect's columns
+    // in the registry's order; dry friction scaled per sample when it follows the supply.
+    let mut dry_scale = None;
+    let mut nonlinear = Vec::new();
+    let mut rest = None;
+    for e in effects::present(spec) {
+        nonlinear.extend(e.nonlinear(&cx)?);
+        if let Some(s) = e.dry_scale(&cx)? {
+            dry_scale = Some(s);
+        }
+        if let Some(b) = e.breakaway(spec)? {
+            rest = Some(b);
+        }
+    }
+    for e in effects::present(spec) {
+        e.load_terms(&cx, dry_scale.as_deref(), &mut terms)?;
+    }
     let n = d.y.len();
     let index = (0..n).filter(|&k| d.valid[k]).collect();
-    let stiction = spec.effects.iter().any(|e| e.kind == EffectKind::Stiction);
-    let fsx = force_suffix(spec);
-    let breakaway = stiction.then(|| {
-        (
-            p(spec, &format!("stiction.breakaway_pos{fsx}")),
-            p(spec, &format!("stiction.breakaway_neg{fsx}")),
-        )
-    });
-    let breakaway_free = stiction
-        && spec
-            .params()
-            .iter()
-            .any(|(n, p)| p.free && n.starts_with("stiction.breakaway_"));
+    let breakaway = rest.as_ref().map(|b| (b.pos.value, b.neg.value));
+    let breakaway_free = rest.as_ref().is_some_and(|b| b.pos.free || b.neg.free);
     Ok(Balance {
         terms,
         index,
@@ -310,34 +286,10 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
         standstill: standstill_samples(d),
         breakaway,
         breakaway_free,
+        breakaway_names: rest.map(|b| (b.pos.name, b.neg.name)),
         rest_filter: (0.25 * d.cutoff_hz, d.dt),
         dry_scale,
     })
-}
-
-/// Factor of the dry friction levels per sample, `(S / S_nom)^κ_f`, when the model's friction
-/// follows the supply (`supply_friction`); `None` otherwise.
-fn dry_scale(
-    spec: &PlantSpec,
-    raw: &Dataset,
-    nonlinear: &mut Vec<(String, f64)>,
-) -> Option<Vec<f64>> {
-    let effect = spec
-        .effects
-        .iter()
-        .any(|e| e.kind == EffectKind::SupplyFriction);
-    if !effect || raw.supply.is_none() {
-        return None;
-    }
-    let kappa = p(spec, "supply_friction.exponent");
-    nonlinear.push(("supply_friction.exponent".to_string(), kappa));
-    let f = crate::physics::effects::SupplyFriction { exponent: kappa };
-    Some(
-        supply_ratio(spec, raw)
-            .into_iter()
-            .map(|r| f.factor(r))
-            .collect(),
-    )
 }
 
 /// Largest acceleration at rest, as a fraction of the 95 % quantile of `|a|`.
@@ -378,7 +330,6 @@ fn body_drive_terms(
     raw: &Dataset,
     d: &Prepared,
     terms: &mut Vec<Term>,
-    nonlinear: &mut Vec<(String, f64)>,
 ) -> anyhow::Result<()> {
     let fam = spec.family.name();
     let n = d.y.len();
@@ -390,41 +341,19 @@ fn body_drive_terms(
             .collect();
     // Inertia.
     let inertia = terms.len();
-    terms.push(param_term(spec, &f("mass_kg"), d.a.clone()));
+    terms.push(param_term(spec, &f("mass_kg"), d.a.clone())?);
     // The drive signal D and its gain K.
-    let ratio = supply_ratio(spec, raw);
-    let u = shaped_command(spec, raw, d.dt);
+    let ratio = supply_ratio(spec, raw)?;
+    let u = shaped_command(spec, raw, d.dt)?;
     let kappa = if has(EffectKind::SupplyGain) {
-        let k = p(spec, "supply_gain.exponent");
-        nonlinear.push(("supply_gain.exponent".to_string(), k));
-        Some(k)
+        Some(supply_gain::EXPONENT.value(spec)?)
     } else {
         None
     };
     let factor = |r: f64| kappa.map_or(1.0, |k| r.max(0.0).powf(k));
-    for (name, key) in [
-        ("dead_time.delay_s", EffectKind::DeadTime),
-        ("deadzone", EffectKind::Deadzone),
-    ] {
-        if has(key) {
-            let full = if key == EffectKind::Deadzone {
-                format!("deadzone.threshold{}", spec.command.suffix_and_unit().0)
-            } else {
-                name.to_string()
-            };
-            nonlinear.push((full.clone(), p(spec, &full)));
-        }
-    }
-    if has(EffectKind::Saturation) {
-        let unit = spec.command.suffix_and_unit().0;
-        for side in ["max", "min"] {
-            let key = format!("saturation.{side}{unit}");
-            nonlinear.push((key.clone(), p(spec, &key)));
-        }
-    }
     let (gain, drive_raw): (f64, Vec<f64>) = match spec.family {
         Family::LinearAxis if spec.command == CommandUnit::Volt => {
-            let vs = p(spec, &f("supply_voltage_v"));
+            let vs = p(spec, &f("supply_voltage_v"))?;
             let sig = u
                 .iter()
                 .zip(&ratio)
@@ -433,18 +362,18 @@ fn body_drive_terms(
                     None => x.clamp(-vs * r, vs * r),
                 })
                 .collect();
-            (p(spec, &f("force_gain_n_per_v")), held_force(sig))
+            (p(spec, &f("force_gain_n_per_v"))?, held_force(sig))
         }
         Family::LinearAxis => (1.0, held_force(u.clone())),
         Family::Solenoid => {
-            let k_mag = p(spec, &f("force_constant_n_per_a"));
+            let k_mag = p(spec, &f("force_constant_n_per_a"))?;
             match &raw.current {
                 Some(i) => (k_mag, i.clone()),
                 None => {
                     // Current loop `T_I I' + I = K_I U`, exact for U held over a sample.
-                    let vs = p(spec, &f("supply_voltage_v"));
-                    let ti = p(spec, &f("current_time_constant_s"));
-                    let ki = p(spec, &f("current_gain_a_per_v"));
+                    let vs = p(spec, &f("supply_voltage_v"))?;
+                    let ti = p(spec, &f("current_time_constant_s"))?;
+                    let ki = p(spec, &f("current_gain_a_per_v"))?;
                     let beta = 1.0 - (-d.dt / ti).exp();
                     let mut i = 0.0;
                     let sig = u
@@ -466,7 +395,7 @@ fn body_drive_terms(
         }
         Family::Pneumatic => {
             // Valves: v_c = K_I1 d (d < 0) or K_I2 d (d > 0), times (S/S_nom)^κ.
-            let c = p(spec, &f("mass_kg")) / p(spec, &f("velocity_time_constant_s"));
+            let c = p(spec, &f("mass_kg"))? / p(spec, &f("velocity_time_constant_s"))?;
             let declared = |name: &str| !is_free(spec, &f(name));
             let from_data = !declared("gain_down_m_per_s") && !declared("gain_up_m_per_s");
             // The duty is held over each sample like a drive force: taken at the instant of the
@@ -489,12 +418,12 @@ fn body_drive_terms(
                 spec,
                 &f("gain_down_m_per_s"),
                 zero_phase(&down, fc, dt),
-            ));
+            )?);
             terms.push(param_term(
                 spec,
                 &f("gain_up_m_per_s"),
                 zero_phase(&up, fc, dt),
-            ));
+            )?);
             let compliance: Vec<f64> = d.v.iter().map(|v| c * v).collect();
             if from_data && !has(EffectKind::Viscous) {
                 // Drive constants not given and no viscous damping beside the chamber: the
@@ -521,6 +450,7 @@ fn body_drive_terms(
                     value: 1.0,
                     bounds: (0.0, f64::INFINITY),
                     col: compliance,
+                    dry: None,
                 });
             } else {
                 terms.push(fixed_term("compliance (m/τ) v", compliance));
@@ -535,28 +465,18 @@ fn body_drive_terms(
         let base = zero_phase(&drive_raw, fc, dt);
         let (g_pos, g_neg) = if has(EffectKind::DirectionAsymmetry) {
             (
-                p(spec, "direction_asymmetry.gain_pos"),
-                p(spec, "direction_asymmetry.gain_neg"),
+                direction_asymmetry::GAIN_POS.value(spec)?,
+                direction_asymmetry::GAIN_NEG.value(spec)?,
             )
         } else {
             (1.0, 1.0)
         };
         let ps = if has(EffectKind::PositionStiffness) {
-            let y0 = p(
-                spec,
-                &format!("position_stiffness.pole{}", pos_suffix(spec)),
-            );
             Some((
-                y0,
-                p(spec, "position_stiffness.c0"),
-                p(
-                    spec,
-                    &format!("position_stiffness.c1{}", per_pos_suffix(spec, 1)),
-                ),
-                p(
-                    spec,
-                    &format!("position_stiffness.c2{}", per_pos_suffix(spec, 2)),
-                ),
+                position_stiffness::POLE.value(spec)?,
+                position_stiffness::C0.value(spec)?,
+                position_stiffness::C1.value(spec)?,
+                position_stiffness::C2.value(spec)?,
             ))
         } else {
             None
@@ -577,9 +497,8 @@ fn body_drive_terms(
                     })
                     .collect(),
             ));
-            terms.push(param_term(
-                spec,
-                "direction_asymmetry.gain_neg",
+            terms.push(Term::param(
+                direction_asymmetry::GAIN_NEG.resolve(spec)?,
                 (0..n)
                     .map(|k| {
                         if dir[k] < 0.0 {
@@ -597,26 +516,21 @@ fn body_drive_terms(
             ));
         }
         if let Some((y0, _, _, _)) = ps {
-            let c1 = format!("position_stiffness.c1{}", per_pos_suffix(spec, 1));
-            let c2 = format!("position_stiffness.c2{}", per_pos_suffix(spec, 2));
-            terms.push(param_term(
-                spec,
-                &c1,
+            terms.push(Term::param(
+                position_stiffness::C1.resolve(spec)?,
                 (0..n)
                     .map(|k| -gain * base[k] * gdir(k) * (y0 - d.y[k]))
                     .collect(),
             ));
-            terms.push(param_term(
-                spec,
-                &c2,
+            terms.push(Term::param(
+                position_stiffness::C2.resolve(spec)?,
                 (0..n)
                     .map(|k| -gain * base[k] * gdir(k) * (y0 - d.y[k]).powi(2))
                     .collect(),
             ));
         }
         if has(EffectKind::Hysteresis) {
-            let w = p(spec, &format!("hysteresis.width{}", force_suffix(spec)));
-            nonlinear.push((format!("hysteresis.width{}", force_suffix(spec)), w));
+            let w = hysteresis::WIDTH.value(spec)?;
             // Play on the unfiltered drive force, then filtered like every other column.
             let full: Vec<f64> = (0..n)
                 .map(|k| {
@@ -642,141 +556,10 @@ fn body_drive_terms(
     Ok(())
 }
 
-/// The resisting forces on the moving body (the load of `motor_gear`): friction, spring,
-/// payload, offset.
-fn load_terms(
-    spec: &PlantSpec,
-    d: &Prepared,
-    dry_scale: Option<&[f64]>,
-    terms: &mut Vec<Term>,
-    nonlinear: &mut Vec<(String, f64)>,
-) {
-    let n = d.y.len();
-    let has = |k: EffectKind| spec.effects.iter().any(|e| e.kind == k);
-    // Resisting forces.
-    let one = |cond: &dyn Fn(usize) -> f64| (0..n).map(cond).collect::<Vec<f64>>();
-    // Dry friction columns carry the supply's factor when the friction follows the supply.
-    let dry = |cond: &dyn Fn(usize) -> f64| {
-        (0..n)
-            .map(|k| cond(k) * dry_scale.map_or(1.0, |s| s[k]))
-            .collect::<Vec<f64>>()
-    };
-    if has(EffectKind::Viscous) {
-        let fs = damping_suffix(spec);
-        terms.push(param_term(
-            spec,
-            &format!("viscous.damping_pos{fs}"),
-            one(&|k| if d.v[k] > 0.0 { d.v[k] } else { 0.0 }),
-        ));
-        terms.push(param_term(
-            spec,
-            &format!("viscous.damping_neg{fs}"),
-            one(&|k| if d.v[k] < 0.0 { d.v[k] } else { 0.0 }),
-        ));
-    }
-    let fsx = force_suffix(spec);
-    if has(EffectKind::Coulomb) {
-        terms.push(param_term(
-            spec,
-            &format!("coulomb.coulomb_pos{fsx}"),
-            dry(&|k| if d.v[k] > 0.0 { 1.0 } else { 0.0 }),
-        ));
-        terms.push(param_term(
-            spec,
-            &format!("coulomb.coulomb_neg{fsx}"),
-            dry(&|k| if d.v[k] < 0.0 { -1.0 } else { 0.0 }),
-        ));
-    }
-    if has(EffectKind::Stribeck) {
-        let vs = velocity_suffix(spec);
-        let vp = p(spec, &format!("stribeck.velocity_pos{vs}"));
-        let vn = p(spec, &format!("stribeck.velocity_neg{vs}"));
-        nonlinear.push((format!("stribeck.velocity_pos{vs}"), vp));
-        terms.push(param_term(
-            spec,
-            &format!("stribeck.excess_pos{fsx}"),
-            dry(&|k| {
-                if d.v[k] > 0.0 {
-                    (-d.v[k] / vp).exp()
-                } else {
-                    0.0
-                }
-            }),
-        ));
-        terms.push(param_term(
-            spec,
-            &format!("stribeck.excess_neg{fsx}"),
-            dry(&|k| {
-                if d.v[k] < 0.0 {
-                    -(d.v[k] / vn).exp()
-                } else {
-                    0.0
-                }
-            }),
-        ));
-    }
-    if has(EffectKind::Spring) {
-        terms.push(param_term(
-            spec,
-            &format!("spring.stiffness{}", stiffness_suffix(spec)),
-            d.y.clone(),
-        ));
-        terms.push(param_term(
-            spec,
-            &format!("spring.pretension{fsx}"),
-            vec![1.0; n],
-        ));
-    }
-    if has(EffectKind::Payload) {
-        let full = p(spec, &format!("payload.full_scale{}", pos_suffix(spec)));
-        nonlinear.push((format!("payload.full_scale{}", pos_suffix(spec)), full));
-        terms.push(param_term(
-            spec,
-            &format!("payload.max_load{fsx}"),
-            d.y.iter().map(|y| (y / full).clamp(-1.0, 1.0)).collect(),
-        ));
-    }
-    if has(EffectKind::Offset) {
-        terms.push(param_term(
-            spec,
-            &format!("offset.bias{fsx}"),
-            vec![-1.0; n],
-        ));
-    }
-}
-
-pub(super) fn force_suffix(spec: &PlantSpec) -> &'static str {
-    spec.family
-        .suffix_and_unit(crate::physics::Quantity::Force, spec.command)
-        .0
-}
-fn damping_suffix(spec: &PlantSpec) -> &'static str {
-    spec.family
-        .suffix_and_unit(crate::physics::Quantity::Damping, spec.command)
-        .0
-}
-fn stiffness_suffix(spec: &PlantSpec) -> &'static str {
-    spec.family
-        .suffix_and_unit(crate::physics::Quantity::Stiffness, spec.command)
-        .0
-}
 pub(super) fn pos_suffix(spec: &PlantSpec) -> &'static str {
     spec.family
         .suffix_and_unit(crate::physics::Quantity::Position, spec.command)
         .0
-}
-fn velocity_suffix(spec: &PlantSpec) -> &'static str {
-    spec.family
-        .suffix_and_unit(crate::physics::Quantity::Velocity, spec.command)
-        .0
-}
-fn per_pos_suffix(spec: &PlantSpec, order: u8) -> &'static str {
-    let q = if order == 1 {
-        crate::physics::Quantity::PerPosition
-    } else {
-        crate::physics::Quantity::PerPosition2
-    };
-    spec.family.suffix_and_unit(q, spec.command).0
 }
 
 impl Balance {
@@ -817,7 +600,7 @@ impl Balance {
         let n = self.terms.first().map_or(0, |t| t.col.len());
         let mut f = vec![0.0; n];
         for (t, v) in self.terms.iter().zip(values) {
-            if !is_dry(&t.name) {
+            if t.dry.is_none() {
                 for (fk, c) in f.iter_mut().zip(&t.col) {
                     *fk -= v * c;
                 }
@@ -832,14 +615,10 @@ impl Balance {
     fn band(&self, values: &[f64], breakaway: Option<(f64, f64)>) -> (f64, f64) {
         let (mut pos, mut neg) = (0.0, 0.0);
         for (t, v) in self.terms.iter().zip(values) {
-            if t.name.starts_with("coulomb.coulomb_pos")
-                || t.name.starts_with("stribeck.excess_pos")
-            {
-                pos += v;
-            } else if t.name.starts_with("coulomb.coulomb_neg")
-                || t.name.starts_with("stribeck.excess_neg")
-            {
-                neg += v;
+            match t.dry {
+                Some(Dry::Pos) => pos += v,
+                Some(Dry::Neg) => neg += v,
+                None => {}
             }
         }
         match breakaway {
@@ -1121,11 +900,6 @@ const REFINE: usize = 6;
 /// Fewer samples at rest than this say nothing about the model at rest.
 const MIN_REST_SAMPLES: usize = 20;
 
-/// Dry-friction terms: they take what holds the body at rest.
-fn is_dry(name: &str) -> bool {
-    name.starts_with("coulomb.") || name.starts_with("stribeck.")
-}
-
 /// Grids for the nonlinear parameters of an effect, from the data: `(qualified name, values)`,
 /// searched one after the other; empty for an effect linear in its parameters.
 pub fn grid_for(
@@ -1133,108 +907,8 @@ pub fn grid_for(
     kind: EffectKind,
     d: &Prepared,
     raw: &Dataset,
-) -> Vec<(String, Vec<f64>)> {
-    let geom = |lo: f64, hi: f64, n: usize| -> Vec<f64> {
-        (0..n)
-            .map(|i| lo * (hi / lo).powf(i as f64 / (n - 1) as f64))
-            .collect()
-    };
-    match kind {
-        EffectKind::Stribeck => {
-            let vmax = abs_quantile(&d.v, 0.95).max(1e-12);
-            vec![(
-                format!("stribeck.velocity_pos{}", velocity_suffix(spec)),
-                geom(vmax * 0.01, vmax * 0.5, 10),
-            )]
-        }
-        EffectKind::Hysteresis => {
-            let umax = abs_quantile(&raw.input, 0.95).max(1e-12);
-            let scale = match spec.family {
-                Family::Solenoid => {
-                    raw.current
-                        .as_ref()
-                        .map_or(umax * 0.1, |i| abs_quantile(i, 0.95))
-                        * p(spec, "solenoid.force_constant_n_per_a")
-                }
-                Family::LinearAxis if spec.command == CommandUnit::Volt => {
-                    umax * p(spec, "linear_axis.force_gain_n_per_v")
-                }
-                _ => umax,
-            };
-            vec![(
-                format!("hysteresis.width{}", force_suffix(spec)),
-                geom(scale * 0.005, scale * 0.6, 12),
-            )]
-        }
-        EffectKind::Deadzone => {
-            let umax = abs_quantile(&raw.input, 0.95).max(1e-12);
-            vec![(
-                format!("deadzone.threshold{}", spec.command.suffix_and_unit().0),
-                geom(umax * 0.003, umax * 0.4, 12),
-            )]
-        }
-        EffectKind::SupplyGain => vec![(
-            "supply_gain.exponent".to_string(),
-            (0..=20).map(|i| i as f64 * 0.25).collect(),
-        )],
-        EffectKind::SupplyFriction => vec![(
-            "supply_friction.exponent".to_string(),
-            (0..=20).map(|i| i as f64 * 0.25).collect(),
-        )],
-        EffectKind::DeadTime => vec![(
-            "dead_time.delay_s".to_string(),
-            (1..=12).map(|i| i as f64 * d.dt).collect(),
-        )],
-        EffectKind::Payload => {
-            // The clamp must act inside the record, or the payload is a spring.
-            let ymax = abs_quantile(&d.y, 0.98).max(1e-12);
-            vec![(
-                format!("payload.full_scale{}", pos_suffix(spec)),
-                geom(ymax * 0.1, ymax * 0.9, 12),
-            )]
-        }
-        EffectKind::Saturation => {
-            let unit = spec.command.suffix_and_unit().0;
-            let side = |sign: f64| -> Vec<f64> {
-                let mut x: Vec<f64> = raw
-                    .input
-                    .iter()
-                    .map(|u| u * sign)
-                    .filter(|u| *u > 0.0)
-                    .collect();
-                if x.len() < 20 {
-                    return Vec::new();
-                }
-                x.sort_by(f64::total_cmp);
-                [0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.94, 0.97, 0.99, 0.997]
-                    .iter()
-                    .map(|q| sign * x[((x.len() - 1) as f64 * q) as usize])
-                    .collect()
-            };
-            [("max", 1.0), ("min", -1.0)]
-                .into_iter()
-                .map(|(name, sign)| (format!("saturation.{name}{unit}"), side(sign)))
-                .filter(|(_, g)| !g.is_empty())
-                .collect()
-        }
-        EffectKind::Backlash => {
-            let span = 2.0 * abs_quantile(&d.y, 0.95).max(1e-12);
-            vec![(
-                format!("backlash.gap{}", pos_suffix(spec)),
-                geom(span * 2e-4, span * 0.05, 14),
-            )]
-        }
-        EffectKind::VaryingRatio => {
-            // Limits below the largest angle clip 1/cos θ; 1.5 rad leaves it unclipped.
-            let mut g: Vec<f64> = [0.5, 0.75, 0.9, 0.97]
-                .iter()
-                .map(|&q| abs_quantile(&d.y, q).min(1.5))
-                .collect();
-            g.push(1.5);
-            vec![(format!("varying_ratio.max_angle{}", pos_suffix(spec)), g)]
-        }
-        _ => Vec::new(),
-    }
+) -> anyhow::Result<Vec<(String, Vec<f64>)>> {
+    effects::of(kind)?.grid(&Cx { spec, raw, d })
 }
 
 /// Time constant of a solenoid's coil, when the current is not recorded: the drive of the
@@ -1258,13 +932,19 @@ pub fn drive_grid(spec: &PlantSpec, d: &Prepared, raw: &Dataset) -> Vec<(String,
 /// The solenoid coil's time constant, the drive constant the data determine without a current.
 pub const COIL_TIME_CONSTANT: &str = "solenoid.current_time_constant_s";
 
-/// Set a nonlinear parameter; the Stribeck velocity is one value for both directions.
+/// Set a nonlinear parameter, as the effect it belongs to ties it (the Stribeck velocity is one
+/// value for both directions).
 pub fn set_nonlinear(spec: &mut PlantSpec, name: &str, value: f64) -> anyhow::Result<()> {
-    spec.set(name, value)?;
-    if let Some(rest) = name.strip_prefix("stribeck.velocity_pos") {
-        spec.set(&format!("stribeck.velocity_neg{rest}"), value)?;
+    let table = name.split_once('.').map_or("", |(t, _)| t);
+    match EffectKind::from_name(table) {
+        Some(kind) if spec.effects.iter().any(|e| e.kind == kind) => {
+            effects::of(kind)?.set_grid_value(spec, name, value)
+        }
+        _ => {
+            spec.set(name, value)?;
+            Ok(())
+        }
     }
-    Ok(())
 }
 
 /// Fit a model's free parameters by inverse-dynamics regression: linear coefficients by least
@@ -1280,33 +960,15 @@ pub fn fit_spec(
     let mut extra = 0;
     let is_free =
         |spec: &PlantSpec, name: &str| spec.params().iter().any(|(n, p)| n == name && p.free);
-    let mut grids: Vec<(String, Vec<f64>)> = drive_grid(&spec, d, raw)
-        .into_iter()
-        .chain(
-            spec.effects
-                .iter()
-                .flat_map(|e| grid_for(&spec, e.kind, d, raw)),
-        )
-        .filter(|(name, _)| is_free(&spec, name))
-        .collect();
+    let mut grids: Vec<(String, Vec<f64>)> = drive_grid(&spec, d, raw);
+    for e in &spec.effects {
+        grids.extend(grid_for(&spec, e.kind, d, raw)?);
+    }
+    grids.retain(|(name, _)| is_free(&spec, name));
     grids.dedup_by(|a, b| a.0 == b.0);
-    if spec
-        .effects
-        .iter()
-        .any(|e| e.kind == EffectKind::Saturation)
-    {
-        // Free limits start outside the commands, so that searching one leaves the other idle.
-        let unit = spec.command.suffix_and_unit().0;
-        let (lo, hi) = raw
-            .input
-            .iter()
-            .fold((0.0f64, 0.0f64), |(a, b), &u| (a.min(u), b.max(u)));
-        for (side, v) in [("min", lo - 1.0), ("max", hi + 1.0)] {
-            let key = format!("saturation.{side}{unit}");
-            if is_free(&spec, &key) {
-                spec.set(&key, v)?;
-            }
-        }
+    let present: Vec<_> = effects::present(&spec).collect();
+    for e in present {
+        e.start(&mut spec, raw)?;
     }
     for (name, grid) in grids {
         extra += 1;
@@ -1397,12 +1059,12 @@ pub fn apply_fit(spec: &mut PlantSpec, bal: &Balance, fit: &IdFit) -> anyhow::Re
             }
         }
     }
-    if let (true, Some((sp, sn))) = (bal.breakaway_free, fit.breakaway) {
-        let fsx = force_suffix(spec);
-        for (side, v) in [("pos", sp), ("neg", sn)] {
-            let key = format!("stiction.breakaway_{side}{fsx}");
-            if is_free(spec, &key) {
-                spec.set(&key, v)?;
+    if let (true, Some((sp, sn)), Some((np, nn))) =
+        (bal.breakaway_free, fit.breakaway, &bal.breakaway_names)
+    {
+        for (key, v) in [(np, sp), (nn, sn)] {
+            if is_free(spec, key) {
+                spec.set(key, v)?;
             }
         }
     }
@@ -1431,15 +1093,13 @@ pub fn apply_fit(spec: &mut PlantSpec, bal: &Balance, fit: &IdFit) -> anyhow::Re
                 .get("pneumatic.velocity_time_constant_s")
                 .unwrap_or(0.0);
             spec.set("pneumatic.velocity_time_constant_s", tau / r)?;
-            let breakaway: Vec<String> = if bal.breakaway_free {
-                let fsx = force_suffix(spec);
-                ["pos", "neg"]
-                    .iter()
-                    .map(|side| format!("stiction.breakaway_{side}{fsx}"))
+            let breakaway: Vec<String> = match (&bal.breakaway_names, bal.breakaway_free) {
+                (Some((pos, neg)), true) => [pos, neg]
+                    .into_iter()
                     .filter(|k| is_free(spec, k))
-                    .collect()
-            } else {
-                Vec::new()
+                    .cloned()
+                    .collect(),
+                _ => Vec::new(),
             };
             for key in &breakaway {
                 let v = spec.get(key).unwrap_or(0.0);
@@ -1498,7 +1158,7 @@ mod tests {
         s.set("saturation.max_n", 5.0).expect("max");
         s.set("saturation.min_n", -5.0).expect("min");
         s.set("deadzone.threshold_n", 1.0).expect("threshold");
-        let u = shaped_command(&s, &data(vec![0.5, 8.0, -3.0, 0.2, 0.0]), 1e-3);
+        let u = shaped_command(&s, &data(vec![0.5, 8.0, -3.0, 0.2, 0.0]), 1e-3).expect("shaped");
         // Delayed by two samples (the first held), clipped to ±5, then 1 N taken off.
         assert_eq!(u, vec![0.0, 0.0, 0.0, 4.0, -2.0]);
     }

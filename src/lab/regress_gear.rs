@@ -23,58 +23,18 @@ use crate::physics::{CommandUnit, EffectKind, PlantSpec};
 /// 20 Hz and the armature's `L_a / R_a` of 0.3 ms (integrated exactly).
 const SUBSTEPS: usize = 10;
 
-/// Effects the `motor_gear` form can represent beyond the load-side ones of every family.
-/// With a measured current, what acts before the armature is invisible.
-pub fn representable(kind: EffectKind, d: &Prepared) -> bool {
-    use EffectKind as E;
-    matches!(kind, E::Backlash | E::VaryingRatio)
-        || (d.current.is_none()
-            && (matches!(kind, E::Deadzone | E::DeadTime | E::Saturation)
-                || kind == E::SupplyGain && d.supply.is_some()))
-}
-
 /// Inertia and transmitted-torque terms of the load balance.
 pub fn drive_terms(
     spec: &PlantSpec,
     raw: &Dataset,
     d: &Prepared,
     terms: &mut Vec<Term>,
-    nonlinear: &mut Vec<(String, f64)>,
 ) -> anyhow::Result<()> {
     terms.push(param_term(
         spec,
         "motor_gear.load_inertia_kg_m2",
         d.a.clone(),
-    ));
-    let pos = pos_suffix(spec);
-    for (kind, key) in [
-        (EffectKind::Backlash, format!("backlash.gap{pos}")),
-        (
-            EffectKind::VaryingRatio,
-            format!("varying_ratio.max_angle{pos}"),
-        ),
-        (EffectKind::SupplyGain, "supply_gain.exponent".to_string()),
-        (EffectKind::DeadTime, "dead_time.delay_s".to_string()),
-    ] {
-        if spec.effects.iter().any(|e| e.kind == kind) {
-            nonlinear.push((key.clone(), p(spec, &key)));
-        }
-    }
-    let unit = spec.command.suffix_and_unit().0;
-    if spec.effects.iter().any(|e| e.kind == EffectKind::Deadzone) {
-        let key = format!("deadzone.threshold{unit}");
-        nonlinear.push((key.clone(), p(spec, &key)));
-    }
-    if spec
-        .effects
-        .iter()
-        .any(|e| e.kind == EffectKind::Saturation)
-    {
-        for side in ["max", "min"] {
-            let key = format!("saturation.{side}{unit}");
-            nonlinear.push((key.clone(), p(spec, &key)));
-        }
-    }
+    )?);
     let tau = transmitted_torque(spec, raw, d.dt)?;
     let filtered = zero_phase(&tau, d.cutoff_hz, d.dt);
     terms.push(fixed_term(
@@ -102,27 +62,31 @@ struct Drive {
 }
 
 impl Drive {
-    fn of(spec: &PlantSpec) -> Drive {
+    fn of(spec: &PlantSpec) -> anyhow::Result<Drive> {
         let g = |n: &str| p(spec, &format!("motor_gear.{n}"));
         let has = |k: EffectKind| spec.effects.iter().any(|e| e.kind == k);
         let pos = pos_suffix(spec);
-        Drive {
-            r: g("resistance_ohm"),
-            l: g("inductance_h"),
-            ke: g("back_emf_v_s_per_rad"),
-            kt: g("torque_constant_nm_per_a"),
-            jm: g("motor_inertia_kg_m2"),
-            h0: g("ratio"),
-            jg: g("gear_inertia_kg_m2"),
-            kg: g("contact_stiffness_nm_per_rad"),
-            cg: g("contact_damping_nm_s_per_rad"),
-            supply_v: g("supply_voltage_v"),
+        Ok(Drive {
+            r: g("resistance_ohm")?,
+            l: g("inductance_h")?,
+            ke: g("back_emf_v_s_per_rad")?,
+            kt: g("torque_constant_nm_per_a")?,
+            jm: g("motor_inertia_kg_m2")?,
+            h0: g("ratio")?,
+            jg: g("gear_inertia_kg_m2")?,
+            kg: g("contact_stiffness_nm_per_rad")?,
+            cg: g("contact_damping_nm_s_per_rad")?,
+            supply_v: g("supply_voltage_v")?,
             half_gap: has(EffectKind::Backlash)
-                .then(|| 0.5 * p(spec, &format!("backlash.gap{pos}"))),
+                .then(|| p(spec, &format!("backlash.gap{pos}")).map(|g| 0.5 * g))
+                .transpose()?,
             max_angle: has(EffectKind::VaryingRatio)
-                .then(|| p(spec, &format!("varying_ratio.max_angle{pos}"))),
-            exponent: has(EffectKind::SupplyGain).then(|| p(spec, "supply_gain.exponent")),
-        }
+                .then(|| p(spec, &format!("varying_ratio.max_angle{pos}")))
+                .transpose()?,
+            exponent: has(EffectKind::SupplyGain)
+                .then(|| p(spec, "supply_gain.exponent"))
+                .transpose()?,
+        })
     }
 
     /// Ratio `h = h_0 / cos θ_l` (`|θ_l|` limited) and its rate `ḣ` at load angle and speed.
@@ -156,14 +120,14 @@ impl Drive {
 /// measured load angle (linear between samples) and the drive signal: the measured current, or
 /// the armature voltage after the power stage, or the commanded torque.
 pub fn transmitted_torque(spec: &PlantSpec, raw: &Dataset, dt: f64) -> anyhow::Result<Vec<f64>> {
-    let c = Drive::of(spec);
+    let c = Drive::of(spec)?;
     if !(c.r > 0.0 && c.l > 0.0 && c.jg > 0.0 && c.h0 > 0.0) {
         anyhow::bail!("motor_gear: resistance, inductance, gear inertia and ratio must be > 0");
     }
     let n = raw.len();
     let torque_input = spec.command == CommandUnit::NewtonMetre;
-    let u = shaped_command(spec, raw, dt);
-    let supply = supply_ratio(spec, raw);
+    let u = shaped_command(spec, raw, dt)?;
+    let supply = supply_ratio(spec, raw)?;
     let current = if torque_input {
         None
     } else {
@@ -251,7 +215,7 @@ mod tests {
 
     #[test]
     fn contact_is_free_inside_the_gap_and_a_spring_damper_outside() {
-        let d = Drive::of(&gear(false, Some(0.01)));
+        let d = Drive::of(&gear(false, Some(0.01))).expect("drive");
         let (kg, cg) = (d.kg, d.cg);
         assert_eq!(d.contact(0.004, 1.0), 0.0);
         assert_eq!(d.contact(-0.004, -1.0), 0.0);
@@ -259,7 +223,7 @@ mod tests {
         assert!((d.contact(-0.007, 0.0) + kg * 0.002).abs() < 1e-12);
         // One-sided: a contact separating fast pulls nothing.
         assert_eq!(d.contact(0.0051, -1e3), 0.0);
-        let rigid = Drive::of(&gear(false, None));
+        let rigid = Drive::of(&gear(false, None)).expect("drive");
         assert!((rigid.contact(0.001, 0.1) - (kg * 0.001 + cg * 0.1)).abs() < 1e-12);
     }
 
@@ -270,7 +234,7 @@ mod tests {
         for gap in [None, Some(0.01)] {
             let spec = gear(true, gap);
             let tau = transmitted_torque(&spec, &held(0.05, 20_000), 1e-3).expect("torque");
-            let h = p(&spec, "motor_gear.ratio");
+            let h = p(&spec, "motor_gear.ratio").expect("motor_gear.ratio");
             let last = tau[tau.len() - 1];
             assert!(
                 (last - h * 0.05).abs() < 1e-3 * h * 0.05,
@@ -285,9 +249,11 @@ mod tests {
         // Stalled motor: I = U / R_a, τ_c = h K_T U / R_a.
         let spec = gear(false, None);
         let tau = transmitted_torque(&spec, &held(2.0, 20_000), 1e-3).expect("torque");
-        let want =
-            p(&spec, "motor_gear.ratio") * p(&spec, "motor_gear.torque_constant_nm_per_a") * 2.0
-                / p(&spec, "motor_gear.resistance_ohm");
+        let want = p(&spec, "motor_gear.ratio").expect("motor_gear.ratio")
+            * p(&spec, "motor_gear.torque_constant_nm_per_a")
+                .expect("motor_gear.torque_constant_nm_per_a")
+            * 2.0
+            / p(&spec, "motor_gear.resistance_ohm").expect("motor_gear.resistance_ohm");
         let last = tau[tau.len() - 1];
         assert!((last - want).abs() < 1e-3 * want, "{last} against {want}");
     }
@@ -349,7 +315,7 @@ mod tests {
             plant.step(d.input[k], dt);
         }
         d.current = Some(current);
-        let c = Drive::of(&spec);
+        let c = Drive::of(&spec).expect("drive");
         let half = c.half_gap.expect("play");
         let lab = transmitted_torque(&spec, &d, dt).expect("torque");
         let (mut err, mut total) = (0.0, 0.0);
@@ -376,7 +342,7 @@ mod tests {
         let mut s = gear(false, None);
         s.add_effect(EffectKind::VaryingRatio).expect("effect");
         s.set("varying_ratio.max_angle_rad", 1.0).expect("limit");
-        let d = Drive::of(&s);
+        let d = Drive::of(&s).expect("drive");
         let (h, _) = d.ratio(0.5, 0.0);
         assert!((h - d.h0 / 0.5f64.cos()).abs() < 1e-12);
         let (h, rate) = d.ratio(1.2, 3.0);

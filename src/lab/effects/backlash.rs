@@ -1,0 +1,67 @@
+//! `backlash` in the lab: the play of `motor_gear`'s contact, part of the transmitted torque
+//! ([`crate::lab::regress_gear`]), searched on a grid; its signature is a residual that bursts
+//! after the drive reverses.
+
+use super::{geometric, Cx, Evidence, Grid, LabEffect};
+use crate::lab::params::Key;
+use crate::lab::signals::{abs_quantile, Prepared};
+use crate::physics::{EffectKind, Family};
+
+const GAP: Key = Key::effect(EffectKind::Backlash, "gap");
+
+/// The lab's side of `backlash`.
+pub struct Backlash;
+
+impl LabEffect for Backlash {
+    fn kind(&self) -> EffectKind {
+        EffectKind::Backlash
+    }
+
+    fn representable(&self, family: Family, _d: &Prepared) -> bool {
+        family == Family::MotorGear
+    }
+
+    fn grid(&self, cx: &Cx) -> anyhow::Result<Vec<Grid>> {
+        let span = 2.0 * abs_quantile(&cx.d.y, 0.95).max(1e-12);
+        Ok(vec![(
+            GAP.name(cx.spec)?,
+            geometric(span * 2e-4, span * 0.05, 14),
+        )])
+    }
+
+    fn nonlinear(&self, cx: &Cx) -> anyhow::Result<Vec<(String, f64)>> {
+        let h = GAP.resolve(cx.spec)?;
+        Ok(vec![(h.name, h.value)])
+    }
+
+    fn evidence(&self, ev: &Evidence) -> String {
+        // Reversals of the drive signal; the play decouples the load just after them.
+        let (r, idx, d) = (ev.r(), ev.idx(), ev.d);
+        let drive = ev.drive();
+        let window = (0.05 / d.dt).ceil() as usize;
+        let mut since = vec![usize::MAX; drive.len()];
+        let mut last: Option<usize> = None;
+        for k in 1..drive.len() {
+            if drive[k].signum() != drive[k - 1].signum() {
+                last = Some(k);
+            }
+            if let Some(l) = last {
+                since[k] = k - l;
+            }
+        }
+        let rms = |sel: &dyn Fn(usize) -> bool| {
+            let (s, m) = idx
+                .iter()
+                .enumerate()
+                .filter(|(_, &k)| sel(k))
+                .fold((0.0, 0usize), |(s, m), (i, _)| (s + r[i] * r[i], m + 1));
+            (s / m.max(1) as f64).sqrt()
+        };
+        format!(
+            "residual bursts after drive reversals: RMS {:.3e} {} within 50 ms after one, {:.3e} elsewhere",
+            rms(&|k| since[k] < window),
+            ev.unit,
+            rms(&|k| since[k] >= window)
+        )
+    }
+}

@@ -1,0 +1,49 @@
+//! `direction_asymmetry` in the lab: the drive gain of negative motion relative to positive, a
+//! column of the drive force (built with the drive in `regress.rs`); its signature is a
+//! residual that follows the command differently in each direction.
+
+use super::{corr, Evidence, LabEffect};
+use crate::lab::params::Key;
+use crate::lab::signals::Prepared;
+use crate::physics::{EffectKind, Family};
+
+/// Drive gain on positive motion (the reference).
+pub const GAIN_POS: Key = Key::effect(EffectKind::DirectionAsymmetry, "gain_pos");
+/// Drive gain on negative motion (fitted).
+pub const GAIN_NEG: Key = Key::effect(EffectKind::DirectionAsymmetry, "gain_neg");
+
+/// The lab's side of `direction_asymmetry`.
+pub struct DirectionAsymmetry;
+
+impl LabEffect for DirectionAsymmetry {
+    fn kind(&self) -> EffectKind {
+        EffectKind::DirectionAsymmetry
+    }
+
+    fn representable(&self, family: Family, _d: &Prepared) -> bool {
+        family == Family::LinearAxis
+    }
+
+    fn evidence(&self, ev: &Evidence) -> String {
+        let (r, idx, d) = (ev.r(), ev.idx(), ev.d);
+        let side = |sel: &dyn Fn(f64) -> bool| {
+            corr(
+                &idx.iter()
+                    .enumerate()
+                    .filter(|(_, &k)| sel(d.v[k]))
+                    .map(|(i, _)| r[i])
+                    .collect::<Vec<_>>(),
+                &idx.iter()
+                    .filter(|&&k| sel(d.v[k]))
+                    .map(|&k| d.u[k])
+                    .collect::<Vec<_>>(),
+            )
+        };
+        let neg = side(&|v| v < 0.0);
+        let pos = side(&|v| v > 0.0);
+        format!(
+            "drive gain differs by direction: correlation of residual with the command \
+             {pos:+.2} moving positive, {neg:+.2} moving negative"
+        )
+    }
+}

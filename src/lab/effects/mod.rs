@@ -1,0 +1,346 @@
+//! The lab's side of each physical effect, one file each beside `physics/effects/`: when the
+//! balance of forces can represent it, the columns it adds, the grid of its nonlinear parameters,
+//! how it shapes the command, and the signature the diagnosis looks for in a residual. The
+//! regression ([`super::regress`]) and the diagnosis ([`super::diagnose`]) run over these
+//! descriptions.
+//!
+//! To give a new effect its lab side: write `effects/<name>.rs` with a unit struct implementing
+//! [`LabEffect`] and add it to [`REGISTRY`] (its place there is the order of its columns and of
+//! its nonlinear parameters in a fit). An effect that changes the drive force of the one-body
+//! families (as `direction_asymmetry`, `position_stiffness` and `hysteresis` do) still needs its
+//! place in `regress.rs`'s drive.
+
+use super::data::Dataset;
+use super::params::Handle;
+use super::regress::{IdFit, Term};
+use super::signals::Prepared;
+use crate::physics::{EffectKind, Family, PlantSpec};
+
+pub mod backlash;
+pub mod coulomb;
+pub mod dead_time;
+pub mod deadzone;
+pub mod direction_asymmetry;
+pub mod hysteresis;
+pub mod offset;
+pub mod payload;
+pub mod position_stiffness;
+pub mod saturation;
+pub mod spring;
+pub mod stiction;
+pub mod stribeck;
+pub mod supply_friction;
+pub mod supply_gain;
+pub mod varying_ratio;
+pub mod viscous;
+
+/// A model and the data it is fitted on, as an effect's lab side sees them.
+#[derive(Clone, Copy)]
+pub struct Cx<'a> {
+    /// The model (with the effect).
+    pub spec: &'a PlantSpec,
+    /// The raw data set.
+    pub raw: &'a Dataset,
+    /// Its filtered signals.
+    pub d: &'a Prepared,
+}
+
+/// A grid of values for one nonlinear parameter (qualified name, values), searched with the
+/// linear parameters refitted at each point.
+pub type Grid = (String, Vec<f64>);
+
+/// The levels that hold a body at rest (stiction): the breakaway force in each direction.
+#[derive(Debug, Clone)]
+pub struct Breakaway {
+    /// Positive direction.
+    pub pos: Handle,
+    /// Negative direction.
+    pub neg: Handle,
+}
+
+/// What the lab knows of one effect.
+pub trait LabEffect: Sync {
+    /// The effect.
+    fn kind(&self) -> EffectKind;
+
+    /// True when the balance of forces of a `family` model can represent the effect with the
+    /// signals `d` recorded (with a measured current, what acts before the coil is invisible).
+    fn representable(&self, family: Family, d: &Prepared) -> bool;
+
+    /// Grids of its nonlinear parameters, searched one after the other; none for an effect
+    /// linear in its parameters.
+    fn grid(&self, _cx: &Cx) -> anyhow::Result<Vec<Grid>> {
+        Ok(Vec::new())
+    }
+
+    /// Its nonlinear parameters and their values, as the balance holds them.
+    fn nonlinear(&self, _cx: &Cx) -> anyhow::Result<Vec<(String, f64)>> {
+        Ok(Vec::new())
+    }
+
+    /// Set a grid point of one of its nonlinear parameters (an effect may tie others to it).
+    fn set_grid_value(&self, spec: &mut PlantSpec, name: &str, value: f64) -> anyhow::Result<()> {
+        spec.set(name, value)?;
+        Ok(())
+    }
+
+    /// Starting values before the grid search, from the data.
+    fn start(&self, _spec: &mut PlantSpec, _raw: &Dataset) -> anyhow::Result<()> {
+        Ok(())
+    }
+
+    /// Its place in the power stage (lowest first) and what it does to the command there.
+    fn command_stage(&self) -> Option<u8> {
+        None
+    }
+
+    /// Shape the command `u` (sample period `dt`) in its place in the power stage.
+    fn shape_command(&self, _spec: &PlantSpec, _u: &mut Vec<f64>, _dt: f64) -> anyhow::Result<()> {
+        Ok(())
+    }
+
+    /// Factor of the dry friction levels per sample (`None`: 1).
+    fn dry_scale(&self, _cx: &Cx) -> anyhow::Result<Option<Vec<f64>>> {
+        Ok(None)
+    }
+
+    /// Its terms among the resisting forces on the moving body (the load of `motor_gear`); dry
+    /// friction columns carry the factor `dry_scale` per sample.
+    fn load_terms(
+        &self,
+        _cx: &Cx,
+        _dry_scale: Option<&[f64]>,
+        _terms: &mut Vec<Term>,
+    ) -> anyhow::Result<()> {
+        Ok(())
+    }
+
+    /// The levels that hold the body at rest, when the effect is one that does.
+    fn breakaway(&self, _spec: &PlantSpec) -> anyhow::Result<Option<Breakaway>> {
+        Ok(None)
+    }
+
+    /// The effect's signature in the residual of a model without it.
+    fn evidence(&self, ev: &Evidence) -> String;
+}
+
+/// Every effect's lab side, in the order of their columns in the balance and of their
+/// nonlinear parameters in a fit.
+pub const REGISTRY: &[&dyn LabEffect] = &[
+    &viscous::Viscous,
+    &coulomb::Coulomb,
+    &stiction::Stiction,
+    &backlash::Backlash,
+    &varying_ratio::VaryingRatio,
+    &supply_gain::SupplyGain,
+    &dead_time::DeadTime,
+    &deadzone::Deadzone,
+    &saturation::Saturation,
+    &hysteresis::Hysteresis,
+    &supply_friction::SupplyFriction,
+    &stribeck::Stribeck,
+    &spring::Spring,
+    &position_stiffness::PositionStiffness,
+    &direction_asymmetry::DirectionAsymmetry,
+    &payload::Payload,
+    &offset::Offset,
+];
+
+/// The lab's side of `kind`. Every effect has one (a test checks it).
+pub fn of(kind: EffectKind) -> anyhow::Result<&'static dyn LabEffect> {
+    REGISTRY
+        .iter()
+        .copied()
+        .find(|e| e.kind() == kind)
+        .ok_or_else(|| anyhow::anyhow!("effect '{kind}' has no lab side in lab/effects"))
+}
+
+/// The lab sides of the effects of `spec`, in registry order.
+pub fn present(spec: &PlantSpec) -> impl Iterator<Item = &'static dyn LabEffect> + '_ {
+    REGISTRY
+        .iter()
+        .copied()
+        .filter(|e| spec.effects.iter().any(|s| s.kind == e.kind()))
+}
+
+/// True when what acts on the command before the coil or armature shows in the data: not on a
+/// solenoid or a motor whose current is recorded (the balance is driven by that current).
+pub fn command_visible(family: Family, d: &Prepared) -> bool {
+    !(matches!(family, Family::Solenoid | Family::MotorGear) && d.current.is_some())
+}
+
+/// Geometric grid of `n` values from `lo` to `hi`.
+pub fn geometric(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| lo * (hi / lo).powf(i as f64 / (n - 1) as f64))
+        .collect()
+}
+
+/// What the diagnosis shows an effect: the residual of the model without it and the data.
+pub struct Evidence<'a> {
+    /// The fit of the model without the effect.
+    pub base: &'a IdFit,
+    /// The raw data set.
+    pub data: &'a Dataset,
+    /// Its filtered signals.
+    pub d: &'a Prepared,
+    /// Unit of the residual (N or N·m).
+    pub unit: &'a str,
+}
+
+impl Evidence<'_> {
+    /// The moving residual.
+    pub fn r(&self) -> &[f64] {
+        &self.base.residual
+    }
+
+    /// Sample index of each residual.
+    pub fn idx(&self) -> &[usize] {
+        &self.base.index
+    }
+
+    /// RMS of the moving residual.
+    pub fn sd(&self) -> f64 {
+        let r = self.r();
+        (r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64).sqrt()
+    }
+
+    /// A signal on the residual's samples.
+    pub fn at(&self, f: &dyn Fn(usize) -> f64) -> Vec<f64> {
+        self.idx().iter().map(|&k| f(k)).collect()
+    }
+
+    /// The drive signal: the current when recorded, else the command (filtered).
+    pub fn drive(&self) -> &[f64] {
+        self.d.current.as_ref().unwrap_or(&self.d.u)
+    }
+}
+
+/// Pearson correlation of two series (0 when either is constant).
+pub fn corr(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len()).max(1) as f64;
+    let ma = a.iter().sum::<f64>() / n;
+    let mb = b.iter().sum::<f64>() / n;
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        sab += (x - ma) * (y - mb);
+        saa += (x - ma) * (x - ma);
+        sbb += (y - mb) * (y - mb);
+    }
+    if saa > 0.0 && sbb > 0.0 {
+        sab / (saa * sbb).sqrt()
+    } else {
+        0.0
+    }
+}
+
+/// Mean of the residuals `r` (indexed like `idx`) at the samples `sel` picks, and their count.
+pub fn mean_where(r: &[f64], idx: &[usize], sel: impl Fn(usize) -> bool) -> (f64, usize) {
+    let mut s = 0.0;
+    let mut n = 0;
+    for (i, &k) in idx.iter().enumerate() {
+        if sel(k) {
+            s += r[i];
+            n += 1;
+        }
+    }
+    (if n > 0 { s / n as f64 } else { 0.0 }, n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_effect_has_one_lab_side() {
+        for &kind in EffectKind::ALL {
+            let n = REGISTRY.iter().filter(|e| e.kind() == kind).count();
+            assert_eq!(n, 1, "{kind}: {n} lab sides");
+        }
+        assert_eq!(REGISTRY.len(), EffectKind::ALL.len());
+    }
+
+    #[test]
+    fn the_power_stage_has_one_place_per_effect() {
+        let mut stages: Vec<u8> = REGISTRY.iter().filter_map(|e| e.command_stage()).collect();
+        let n = stages.len();
+        stages.sort_unstable();
+        stages.dedup();
+        assert_eq!(stages.len(), n);
+    }
+
+    /// Every parameter an effect's lab side names exists in a model with that effect, on every
+    /// family that supports it: the balance, the grids and the evidence are built without error.
+    #[test]
+    fn every_lab_side_finds_its_parameters_on_every_family() {
+        use crate::lab::regress::{balance, grid_for};
+        let n = 2000;
+        let time: Vec<f64> = (0..n).map(|k| k as f64 * 1e-3).collect();
+        let wave = |f: f64, a: f64| time.iter().map(|t| a * (f * t).sin()).collect::<Vec<f64>>();
+        for family in [
+            Family::LinearAxis,
+            Family::Solenoid,
+            Family::Pneumatic,
+            Family::MotorGear,
+        ] {
+            let supply_nominal = match family {
+                Family::Pneumatic => 60_000.0,
+                _ => 24.0,
+            };
+            let raw = Dataset {
+                origin: "t".into(),
+                time: time.clone(),
+                input: wave(7.0, 0.5),
+                output: wave(3.0, 0.01),
+                supply: Some(
+                    wave(1.0, 0.1 * supply_nominal)
+                        .iter()
+                        .map(|x| x + supply_nominal)
+                        .collect(),
+                ),
+                current: None,
+            };
+            let d = crate::lab::signals::prepare(&raw, None);
+            for &kind in EffectKind::ALL {
+                if !kind.supported_by(family) {
+                    continue;
+                }
+                let lab = of(kind).expect("lab side");
+                if !lab.representable(family, &d) {
+                    continue;
+                }
+                let spec = PlantSpec::new(family).with_effect(kind).expect("supported");
+                let bal = balance(&spec, &raw, &d)
+                    .unwrap_or_else(|e| panic!("{family} with {kind}: {e:#}"));
+                grid_for(&spec, kind, &d, &raw)
+                    .unwrap_or_else(|e| panic!("{family} with {kind}: grid: {e:#}"));
+                let fit = bal.evaluate();
+                let ev = Evidence {
+                    base: &fit,
+                    data: &raw,
+                    d: &d,
+                    unit: "N",
+                };
+                assert!(!lab.evidence(&ev).is_empty(), "{family} with {kind}");
+            }
+        }
+    }
+
+    #[test]
+    fn correlation_of_proportional_and_opposite_series() {
+        let x: Vec<f64> = (0..50).map(|k| (k as f64 * 0.3).sin()).collect();
+        let y: Vec<f64> = x.iter().map(|v| 3.0 * v + 1.0).collect();
+        let z: Vec<f64> = x.iter().map(|v| -v).collect();
+        assert!((corr(&x, &y) - 1.0).abs() < 1e-12);
+        assert!((corr(&x, &z) + 1.0).abs() < 1e-12);
+        assert_eq!(corr(&x, &[1.0; 50]), 0.0);
+    }
+
+    #[test]
+    fn mean_where_counts_the_selected_samples() {
+        let r = [1.0, 2.0, 3.0, 4.0];
+        let idx = [10, 11, 12, 13];
+        assert_eq!(mean_where(&r, &idx, |k| k >= 12), (3.5, 2));
+        assert_eq!(mean_where(&r, &idx, |_| false), (0.0, 0));
+    }
+}

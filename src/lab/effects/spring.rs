@@ -1,0 +1,46 @@
+//! `spring` in the lab: columns `c y` and `F_0`; its signature is a residual structured by
+//! position.
+
+use super::{corr, Cx, Evidence, LabEffect};
+use crate::lab::params::Key;
+use crate::lab::regress::Term;
+use crate::lab::signals::Prepared;
+use crate::physics::{EffectKind, Family};
+
+const STIFFNESS: Key = Key::effect(EffectKind::Spring, "stiffness");
+const PRETENSION: Key = Key::effect(EffectKind::Spring, "pretension");
+
+/// The lab's side of `spring`.
+pub struct Spring;
+
+impl LabEffect for Spring {
+    fn kind(&self) -> EffectKind {
+        EffectKind::Spring
+    }
+
+    fn representable(&self, _family: Family, _d: &Prepared) -> bool {
+        true
+    }
+
+    fn load_terms(
+        &self,
+        cx: &Cx,
+        _dry: Option<&[f64]>,
+        terms: &mut Vec<Term>,
+    ) -> anyhow::Result<()> {
+        // F = F_0 + c y
+        terms.push(Term::param(STIFFNESS.resolve(cx.spec)?, cx.d.y.clone()));
+        terms.push(Term::param(
+            PRETENSION.resolve(cx.spec)?,
+            vec![1.0; cx.d.y.len()],
+        ));
+        Ok(())
+    }
+
+    fn evidence(&self, ev: &Evidence) -> String {
+        format!(
+            "residual structured by position: correlation with y {:+.2}",
+            corr(ev.r(), &ev.at(&|k| ev.d.y[k]))
+        )
+    }
+}
