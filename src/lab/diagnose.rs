@@ -194,7 +194,7 @@ pub fn diagnose(
             let finished = done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
             progress(finished, total, kind.name());
             if let Ok(mut g) = results.lock() {
-                g.push(c);
+                g.push((i, c));
             }
         }
     };
@@ -207,9 +207,13 @@ pub fn diagnose(
         }
         Ok(())
     })?;
-    let mut candidates = results
+    let mut indexed = results
         .into_inner()
         .map_err(|_| anyhow::anyhow!("a diagnosis worker panicked"))?;
+    // Workers finish in any order: back to the catalogue's order first, so that candidates
+    // with equal ΔBIC rank the same on every run (the sort below is stable).
+    indexed.sort_by_key(|(i, _)| *i);
+    let mut candidates: Vec<Candidate> = indexed.into_iter().map(|(_, c)| c).collect();
     candidates.sort_by(|a, b| {
         b.significant
             .cmp(&a.significant)
