@@ -27,16 +27,25 @@ const ADAPTIVE: &str = param_key!(AxisConfig, adaptive_friction);
 const OBSERVER: &str = param_key!(AxisConfig, observer);
 const ESTIMATION: &str = param_key!(AxisConfig, parameter_estimation);
 const SCHEDULE: &str = param_key!(AxisConfig, schedule);
+/// The table of the axes, `[[axis]]`.
+const AXIS: &str = param_key!(Config, axis);
 
 /// `axis.<section>.<first>, <second>, ...`: keys of one section as the report names them; the
 /// section alone without keys.
-fn keys(section: &str, names: &[&str]) -> String {
+pub(super) fn keys(section: &str, names: &[&str]) -> String {
     match names.split_first() {
-        None => format!("axis.{section}"),
-        Some((first, rest)) => rest.iter().fold(format!("axis.{section}.{first}"), |s, n| {
-            format!("{s}, {n}")
-        }),
+        None => format!("{AXIS}.{section}"),
+        Some((first, rest)) => rest
+            .iter()
+            .fold(format!("{AXIS}.{section}.{first}"), |s, n| {
+                format!("{s}, {n}")
+            }),
     }
+}
+
+/// `[axis.<section>]`: one section as a table header, the way the messages name it.
+pub(super) fn table(section: &str) -> String {
+    format!("[{}]", keys(section, &[]))
 }
 
 /// The design goal: a dominant closed-loop pair of natural frequency `bandwidth` and damping
@@ -310,7 +319,7 @@ pub(super) fn chosen_axis<'c>(
             .axis
             .iter()
             .position(|a| &a.name == name)
-            .ok_or_else(|| anyhow::anyhow!("{cfg_name}: no [[axis]] named {name:?}"))?,
+            .ok_or_else(|| anyhow::anyhow!("{cfg_name}: no [[{AXIS}]] named {name:?}"))?,
     };
     let a = config
         .axis
@@ -354,8 +363,9 @@ pub fn tune(
     anyhow::ensure!(
         a.controller.state_space_file.is_none(),
         "{cfg_name}: axis {:?} runs a state-space controller from a file; tune writes the transfer \
-         function of [axis.controller] and would leave it unused",
-        a.name
+         function of {} and would leave it unused",
+        a.name,
+        table(CONTROLLER)
     );
     // Intervals too wide to design from.
     // A viscous slope is judged against the whole damping the design sees: beside a motor's
@@ -1083,13 +1093,15 @@ impl fmt::Display for Tuning {
         )?;
         writeln!(
             f,
-            "controller: q_per_m = [{}], p = [{}]",
+            "{CONTROLLER}: {} = [{}], {} = [{}]",
+            param_key!(ControllerSection, q_per_m),
             self.controller
                 .q
                 .iter()
                 .map(|v| format!("{v:.6e}"))
                 .collect::<Vec<_>>()
                 .join(", "),
+            param_key!(ControllerSection, p),
             self.controller
                 .p
                 .iter()
@@ -1262,6 +1274,17 @@ pub fn regenerate_fault_table(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn keys_are_spelled_as_the_configuration_file_writes_them() {
+        // The report and the messages name keys the way a user finds them in the file.
+        assert_eq!(keys(FRICTION, &[]), "axis.friction_compensation");
+        assert_eq!(
+            keys(ADAPTIVE, &["model_deadband_m", "settled_band_m"]),
+            "axis.adaptive_friction.model_deadband_m, settled_band_m"
+        );
+        assert_eq!(table(SCHEDULE), "[axis.schedule]");
+    }
 
     #[test]
     fn goal_parses_and_names_what_is_wrong() {

@@ -6,7 +6,7 @@
 use std::fmt;
 use std::path::Path;
 
-use super::axis::chosen_axis;
+use super::axis::{chosen_axis, keys, table};
 use super::edit::{round_sig, Change, Editor, Kept};
 use super::fitted::Fitted;
 use super::TuneOptions;
@@ -104,14 +104,20 @@ pub fn tune_pneumatic(
         .filter(|s| s.schedules_drive_gains())
         .ok_or_else(|| {
             anyhow::anyhow!(
-                "{cfg_name}: axis {:?} has no [axis.schedule] with drive_gain_down_m_per_s / \
-                 drive_gain_up_m_per_s: tune writes the drive gains the daemon designs its \
-                 direction P gains from",
-                a.name
+                "{cfg_name}: axis {:?} has no {} with {} / {}: tune writes the drive gains the \
+                 daemon designs its direction P gains from",
+                a.name,
+                table(SCHEDULE),
+                COLUMNS[0],
+                COLUMNS[1]
             )
         })?;
     let pressures = schedule.supply_pressure_pa.clone().ok_or_else(|| {
-        anyhow::anyhow!("{cfg_name}: [axis.schedule] of a pneumatic axis needs supply_pressure_pa")
+        anyhow::anyhow!(
+            "{cfg_name}: {} of a pneumatic axis needs {}",
+            table(SCHEDULE),
+            param_key!(ScheduleSection, supply_pressure_pa)
+        )
     })?;
 
     // The drive gains must be determined by the fit.
@@ -190,7 +196,8 @@ pub fn tune_pneumatic(
         for &p in &pressures {
             let k = law(i, p).ok_or_else(|| {
                 anyhow::anyhow!(
-                    "{cfg_name}: [axis.schedule] has no {} column to take the shape from",
+                    "{cfg_name}: {} has no {} column to take the shape from",
+                    table(SCHEDULE),
                     COLUMNS[i]
                 )
             })?;
@@ -284,10 +291,7 @@ pub fn tune_pneumatic(
         goal.clone(),
     );
     ed.keep(
-        format!(
-            "axis.{SCHEDULE}.{}",
-            param_key!(ScheduleSection, nominal_supply_pa)
-        ),
+        keys(SCHEDULE, &[param_key!(ScheduleSection, nominal_supply_pa)]),
         "the supply the gains are tuned at: the installation's choice",
     );
     if let Some(pa) = &a.pneumatic_adaptive {
@@ -299,7 +303,7 @@ pub fn tune_pneumatic(
             .filter(|k| !band.contains(k))
             .collect();
         ed.keep(
-            format!("axis.{}", param_key!(AxisConfig, pneumatic_adaptive)),
+            keys(param_key!(AxisConfig, pneumatic_adaptive), &[]),
             if outside.is_empty() {
                 "its estimation starts from the tuned schedule; its plausible band holds every \
                  tuned gain"
@@ -313,10 +317,22 @@ pub fn tune_pneumatic(
             },
         );
     }
+    let controller = param_key!(AxisConfig, controller);
     ed.keep(
-        "axis.controller, axis.limits, axis.setpoints, [bus], [node], [cycle]",
-        "[axis.controller]'s gains are unused under a drive-gain schedule (its output limits are \
-         the valves'); the rest is the installation's, not the model's",
+        format!(
+            "{}, {}, {}, [{}], [{}], [{}]",
+            keys(controller, &[]),
+            keys(param_key!(AxisConfig, limits), &[]),
+            keys(param_key!(AxisConfig, setpoints), &[]),
+            param_key!(Config, bus),
+            param_key!(Config, node),
+            param_key!(Config, cycle)
+        ),
+        format!(
+            "{}'s gains are unused under a drive-gain schedule (its output limits are the \
+             valves'); the rest is the installation's, not the model's",
+            table(controller)
+        ),
     );
 
     let body = ed.doc.to_string();
