@@ -182,3 +182,33 @@ fn a_configuration_whose_traffic_does_not_fit_the_bus_is_refused() {
         "{err}"
     );
 }
+
+/// `actuator dbc | head`: a reader that has gone away ends the command quietly, as it ends any
+/// Unix filter, instead of a panic about a broken pipe. The pipe's read end is closed before the
+/// command starts, so its first print meets no reader.
+#[test]
+fn a_closed_pipe_on_stdout_ends_the_command_without_a_panic() {
+    use std::os::fd::{FromRawFd, OwnedFd};
+    use std::os::unix::process::ExitStatusExt;
+    let mut fds = [0; 2];
+    // SAFETY: `fds` has room for the two descriptors pipe(2) writes.
+    assert_eq!(unsafe { libc::pipe(fds.as_mut_ptr()) }, 0, "pipe(2)");
+    // SAFETY: both descriptors were just opened by pipe(2) and are owned here alone.
+    let (read_end, write_end) =
+        unsafe { (OwnedFd::from_raw_fd(fds[0]), OwnedFd::from_raw_fd(fds[1])) };
+    drop(read_end);
+    let out = Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .arg("dbc")
+        .stdout(std::process::Stdio::from(write_end))
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .expect("actuator runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(
+        out.status.signal(),
+        Some(libc::SIGPIPE),
+        "{:?} {stderr}",
+        out.status
+    );
+}

@@ -313,6 +313,12 @@ fn parse_duration_s(text: &str) -> Result<f64, String> {
 }
 
 fn main() -> ExitCode {
+    // A reader that goes away (`actuator dbc | head`) ends the command as it ends any Unix
+    // filter, rather than panicking on the next print. Rust starts programs with SIGPIPE ignored.
+    // SAFETY: called first in main, before any thread exists; SIG_DFL is a valid disposition.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()
