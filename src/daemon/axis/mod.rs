@@ -527,6 +527,8 @@ impl Axis {
                     _ => self.sensor.supply_voltage_v,
                 };
                 let (comp, dither) = self.friction.step(self.reference, y, e, supply);
+                let relief = self.friction.arrival_relief(self.setpoint, y);
+                self.law.shift_output(relief);
                 self.last_command = self.law.command(
                     e_scaled,
                     y,
