@@ -241,10 +241,21 @@ impl Simulation {
         // The command applied during the period that led to this cycle's position, as the daemon
         // pairs them.
         let mut last_command = None;
+        // An arrival relief went into the command since the set-point last changed: as in the
+        // daemon, the samples it disturbs stay out until the set-point changes.
+        let mut relief_hold = false;
+        let mut last_setpoint = None;
         for k in 0..cycles {
             let Some(sample) = rig.cycle() else { continue };
             let r = sample.record;
+            if last_setpoint != Some(r.setpoint_position) {
+                relief_hold = false;
+            }
+            last_setpoint = Some(r.setpoint_position);
             if let (Some(u), true) = (last_command, k >= warmup) {
+                if relief_hold {
+                    est.exclude_disturbed();
+                }
                 est.step(r.position, u);
                 if est.updates() >= self.window_updates {
                     if let Some(e) = est.physical_with_deviation() {
@@ -253,6 +264,7 @@ impl Simulation {
                     est.reset();
                 }
             }
+            relief_hold |= r.arrival_relief != 0.0;
             last_command = Some(r.command_voltage);
             out.seconds = (k + 1) as f64 * period_s;
             if out.windows.len() >= options.windows {

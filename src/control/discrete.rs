@@ -111,6 +111,14 @@ impl DiscreteController {
         self.u_past = [u0; MAX_ORDER];
     }
 
+    /// Move the controller's state so that its output is `du` higher from now on, the error
+    /// history unchanged: for an integrating controller, a step of the stored integral.
+    pub fn shift_output(&mut self, du: f64) {
+        for u in &mut self.u_past {
+            *u += du;
+        }
+    }
+
     pub fn limits(&self) -> (f64, f64) {
         (self.u_min, self.u_max)
     }

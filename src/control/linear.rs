@@ -28,6 +28,15 @@ impl LinearController {
         }
     }
 
+    /// Lower or raise the stored output by `du` (the arrival relief). The discrete form moves
+    /// its output history, which for an integrating controller is its integral; a state-space
+    /// controller has no such handle and is left as it is.
+    pub fn shift_output(&mut self, du: f64) {
+        if let LinearController::Discrete(c) = self {
+            c.shift_output(du);
+        }
+    }
+
     pub fn limits(&self) -> (f64, f64) {
         match self {
             LinearController::Discrete(c) => c.limits(),

@@ -11,6 +11,7 @@ mod adaptive_friction;
 mod adaptive_friction_section;
 mod adaptive_pneumatic;
 mod adaptive_pneumatic_section;
+mod arrival_relief;
 mod controller_section;
 mod direction_p;
 mod dither;
@@ -33,6 +34,7 @@ pub use adaptive_pneumatic::{
     GainSource, PneumaticAdaptive, PneumaticAdaptiveConfig, PneumaticStep,
 };
 pub use adaptive_pneumatic_section::PneumaticAdaptiveSection;
+pub use arrival_relief::{ArrivalRelief, ArrivalReliefConfig, ArrivalReliefStep};
 pub use controller_section::ControllerSection;
 pub use direction_p::{DirectionalP, DirectionalPConfig};
 pub use dither::{Dither, DitherConfig};

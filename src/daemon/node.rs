@@ -1188,6 +1188,7 @@ fn cycle_record(
         friction_compensation_neg: step.tuned.friction_compensation_neg,
         gain_schedule_factor: step.tuned.gain_schedule_factor,
         dither: step.tuned.dither,
+        arrival_relief: step.arrival_relief,
         gain_down: step.tuned.gain_down_per_m,
         gain_up: step.tuned.gain_up_per_m,
         drive_gain_down: step.tuned.drive_gain_down_m_per_s,

@@ -46,6 +46,7 @@ const CYCLE_SCHEMA: &str = r#"{
     "friction_compensation_neg": {"type": "number", "description": "U_comp-, command unit"},
     "gain_schedule_factor": {"type": "number"},
     "dither": {"type": "number", "description": "command unit"},
+    "arrival_relief": {"type": "number", "description": "taken out of the controller's stored output this cycle, command unit; the parameter estimation leaves the samples it disturbs out"},
     "gain_down": {"type": "number", "description": "direction P gain q01, 1/m"},
     "gain_up": {"type": "number", "description": "direction P gain q02, 1/m"},
     "drive_gain_down": {"type": "number", "description": "estimated K_I1, m/s"},

@@ -46,6 +46,10 @@ pub struct CycleRecord {
     pub gain_schedule_factor: f64,
     /// Dither added this cycle, command unit.
     pub dither: f64,
+    /// Arrival relief taken out of the controller's stored output this cycle (0 but in the
+    /// cycle of a relieved arrival), command unit: the command's step that does not come from
+    /// the error, which the parameter estimation leaves out.
+    pub arrival_relief: f64,
     /// Direction P gains in use, duty per m.
     pub gain_down: f64,
     pub gain_up: f64,

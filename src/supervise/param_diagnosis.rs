@@ -376,6 +376,8 @@ pub struct ParameterEstimator {
     y_prev: Option<f64>,
     sign: f64,
     moving_run: u32,
+    /// The next sample is disturbed: it does not count as moving.
+    disturbed: bool,
     updates: u64,
 }
 
@@ -423,6 +425,7 @@ impl ParameterEstimator {
             y_prev: None,
             sign: 0.0,
             moving_run: 0,
+            disturbed: false,
             updates: 0,
         })
     }
@@ -436,12 +439,23 @@ impl ParameterEstimator {
         self.y_prev = None;
         self.sign = 0.0;
         self.moving_run = 0;
+        self.disturbed = false;
         self.updates = 0;
     }
 
     /// Number of regression updates so far.
     pub fn updates(&self) -> u64 {
         self.updates
+    }
+
+    /// This sample is disturbed by a command step the loop put in on its own (the arrival
+    /// relief of the controller's integral) and by what follows it until the next set-point:
+    /// leave it out, and the moving samples after it until `min_moving_samples` of them have
+    /// come in a row again (the filters' memory of the disturbed ones). The
+    /// relief moves the armature's stop and the creeping the integral then drives against
+    /// stiction, which the model has no term for: regressed, those samples move `C_F`.
+    pub fn exclude_disturbed(&mut self) {
+        self.disturbed = true;
     }
 
     /// One sample: position `Y(k)` (m) and the voltage `U(k)` applied (V).
@@ -465,6 +479,10 @@ impl ParameterEstimator {
         } else {
             self.svf_y.reset_to(position * POSITION_SCALE);
             self.svf_u.reset_to(command);
+        }
+        if self.disturbed {
+            self.moving_run = 0;
+            self.disturbed = false;
         }
         self.y_prev = Some(position);
         let s_f = self.svf_sign.step(self.sign)[0];
@@ -877,5 +895,39 @@ mod tests {
             assert!(a > 0.0 && a.is_finite(), "{j}: {a}");
             assert!(b > 2.0 * a, "{j}: quiet {a}, noisy {b}");
         }
+    }
+
+    /// Updates of an estimator fed a steady 10 mm/s ramp with a square-wave command over 400
+    /// samples, told that the samples in `disturbed` are disturbed.
+    fn updates_with_disturbed(disturbed: std::ops::Range<u32>) -> u64 {
+        let mut est = ParameterEstimator::new(ParameterEstimatorConfig {
+            period_s: 0.0025,
+            filter_omega_rad_s: 150.0,
+            forgetting: 1.0,
+            mass_kg: 0.4956,
+            nominal_current_time_constant_s: 0.00859,
+            moving_speed_m_per_s: 1e-3,
+            min_moving_samples: 8,
+        })
+        .expect("valid");
+        for k in 0..400u32 {
+            if disturbed.contains(&k) {
+                est.exclude_disturbed();
+            }
+            let u = if (k / 25) % 2 == 0 { 8.0 } else { 6.0 };
+            est.step(1e-3 + 2.5e-5 * f64::from(k), u);
+        }
+        est.updates()
+    }
+
+    #[test]
+    fn disturbed_samples_and_the_filters_memory_of_them_stay_out_of_the_regression() {
+        // Moving throughout: every sample from the ninth on is regressed.
+        let all = updates_with_disturbed(0..0);
+        assert_eq!(all, 400 - 8);
+        // 20 disturbed samples in the middle, then 7 more until 8 moving ones came in a row.
+        assert_eq!(updates_with_disturbed(200..220), all - 20 - 7);
+        // One disturbed sample costs the filters' memory too.
+        assert_eq!(updates_with_disturbed(300..301), all - 1 - 7);
     }
 }

@@ -653,6 +653,7 @@ pub fn tune(
             coulomb_neg_n: 0.0,
             force_gain_n_per_command: 1.0,
             deadband_m: 0.5 * model.backlash_gap.unwrap_or(0.0),
+            ..FrictionCompensationSection::neutral()
         }),
         _ => None,
     };

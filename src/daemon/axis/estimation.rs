@@ -64,6 +64,11 @@ impl Estimation {
         }))
     }
 
+    /// This sample follows an arrival relief of the same set-point: it stays out of the window.
+    pub fn exclude_disturbed(&mut self) {
+        self.estimator.exclude_disturbed();
+    }
+
     /// One moving sample into the window; at the window's end, its estimate against the
     /// nominal values (or into them while they are learned).
     pub fn step(&mut self, position: f64, command: f64) {

@@ -1,13 +1,14 @@
 //! The axis' friction compensation as one part: the feed-forward `U_comp = α F_C± / K sign(e)`
 //! or its adaptive form with a reference model, the adapted values stored by operating point,
-//! and the dither. Built once from `[axis.friction_compensation]`, `[axis.adaptive_friction]`,
+//! the dither, and the arrival relief of the controller's integral. Built once from `[axis.friction_compensation]`, `[axis.adaptive_friction]`,
 //! `[axis.learned_table]` and `[axis.dither]`, stepped in the control stage, and able to hand
 //! over and restore what it learned.
 
 use super::super::config::AxisConfig;
 use super::super::learned::OperatingPointMemory;
 use crate::control::{
-    AdaptiveFriction, Dither, FrictionFeedForward, LearnedTable, OperatingPoint, ParamError,
+    AdaptiveFriction, ArrivalRelief, Dither, FrictionFeedForward, LearnedTable, OperatingPoint,
+    ParamError,
 };
 
 pub struct FrictionCompensation {
@@ -15,6 +16,7 @@ pub struct FrictionCompensation {
     adaptive: Option<AdaptiveFriction>,
     operating_points: Option<OperatingPointMemory>,
     dither: Option<Dither>,
+    arrival: Option<ArrivalRelief>,
     /// What was added to the command in the last cycle, command unit.
     applied: f64,
     applied_dither: f64,
@@ -37,11 +39,18 @@ impl FrictionCompensation {
             .as_ref()
             .map(|d| Dither::new(d.config(period_s)))
             .transpose()?;
+        let arrival = cfg
+            .friction_compensation
+            .as_ref()
+            .and_then(|f| f.arrival_relief(period_s))
+            .map(ArrivalRelief::new)
+            .transpose()?;
         Ok(Self {
             feed_forward,
             adaptive,
             operating_points,
             dither,
+            arrival,
             applied: 0.0,
             applied_dither: 0.0,
         })
@@ -70,6 +79,15 @@ impl FrictionCompensation {
         self.applied = compensation;
         self.applied_dither = dither;
         (compensation, dither)
+    }
+
+    /// The arrival relief of this cycle for the set-point `w` (the target, not the rate-limited
+    /// reference: a ramp would look like a new set-point every cycle): what to take out of the
+    /// controller's stored output, 0 without a relief configured.
+    pub fn arrival_relief(&mut self, setpoint: f64, position: f64) -> f64 {
+        self.arrival
+            .as_mut()
+            .map_or(0.0, |a| a.step(setpoint, position).relief)
     }
 
     /// A cycle in which the command does not come from this part (fail-safe).
@@ -116,6 +134,10 @@ impl FrictionCompensation {
         if let Some(levels) = old.learned() {
             self.restore(levels);
         }
+        if let (Some(new), Some(old)) = (self.arrival.as_mut(), &old.arrival) {
+            let (pos, neg) = old.levels();
+            new.set_levels(pos, neg);
+        }
         if let (Some(new), Some(old)) = (self.operating_points.as_mut(), &old.operating_points) {
             new.restore(old.table());
         }
@@ -138,6 +160,9 @@ impl FrictionCompensation {
     pub fn reset_model(&mut self) {
         if let Some(a) = self.adaptive.as_mut() {
             a.reset_model();
+        }
+        if let Some(a) = self.arrival.as_mut() {
+            a.reset();
         }
     }
 }

@@ -79,6 +79,13 @@ impl ControlLaw {
         self.controller.preset(u);
     }
 
+    /// Take `du` out of (or add it to) the controller's stored output: the arrival relief.
+    pub fn shift_output(&mut self, du: f64) {
+        if du != 0.0 {
+            self.controller.shift_output(du);
+        }
+    }
+
     /// Estimation stage: the pneumatic drive's gain estimators take this cycle's position (not
     /// while the axis rests in its safe state: nothing to learn).
     pub fn estimate(&mut self, position: f64, fail_safe: bool) {

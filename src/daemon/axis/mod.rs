@@ -112,6 +112,8 @@ pub struct AxisStep {
     pub tuned: Tuned,
     /// The measured supply against the scheduled band (inside without one).
     pub supply_band: BandStatus,
+    /// Arrival relief taken out of the controller's stored output this cycle, command unit.
+    pub arrival_relief: f64,
 }
 
 impl AxisStep {
@@ -229,6 +231,9 @@ pub struct Axis {
     /// The error code of a CiA 402 drive in fault: the node is out of operation.
     drive_fault: Option<u16>,
     last_command: f64,
+    /// An arrival relief went into the command since the set-point last changed: the
+    /// estimation leaves the samples out until it changes again.
+    relief_hold: bool,
 }
 
 impl Axis {
@@ -274,6 +279,7 @@ impl Axis {
             drive_fault: None,
             node_was_operational: false,
             last_command: cfg.safe_command,
+            relief_hold: false,
         })
     }
 
@@ -322,7 +328,11 @@ impl Axis {
     /// A new setpoint, clipped to the travel so a bad frame cannot drive the axis into its stop.
     pub fn set_setpoint(&mut self, position: f64) {
         if position.is_finite() {
-            self.setpoint = position.clamp(self.travel.0, self.travel.1);
+            let setpoint = position.clamp(self.travel.0, self.travel.1);
+            if setpoint != self.setpoint {
+                self.relief_hold = false;
+            }
+            self.setpoint = setpoint;
         }
     }
 
@@ -461,6 +471,9 @@ impl Axis {
             return;
         }
         if let Some(e) = self.estimation.as_mut() {
+            if self.relief_hold {
+                e.exclude_disturbed();
+            }
             e.step(self.sensor.position, self.last_command);
         }
         self.law
@@ -508,6 +521,7 @@ impl Axis {
     pub fn control(&mut self, supervision: SupervisionOutput) -> AxisStep {
         let e = self.error;
         let y = self.sensor.position;
+        let mut arrival_relief = 0.0;
         if self.supervision.fail_safe() {
             self.last_command = self.safe_command;
             self.friction.idle();
@@ -527,6 +541,9 @@ impl Axis {
                     _ => self.sensor.supply_voltage_v,
                 };
                 let (comp, dither) = self.friction.step(self.reference, y, e, supply);
+                arrival_relief = self.friction.arrival_relief(self.setpoint, y);
+                self.law.shift_output(arrival_relief);
+                self.relief_hold |= arrival_relief != 0.0;
                 self.last_command = self.law.command(
                     e_scaled,
                     y,
@@ -567,6 +584,7 @@ impl Axis {
             model: *self.supervision.model(),
             tuned,
             supply_band: self.supply_schedule.band(),
+            arrival_relief,
         }
     }
 
@@ -603,6 +621,50 @@ mod tests {
             current_a: 1.0,
             supply_voltage_v: 24.0,
         }
+    }
+
+    /// Sensor readings ramping from `from` to `to` in steps of 25 µm (10 mm/s), then held
+    /// there for `hold` cycles; the steps' arrival reliefs.
+    fn approach(a: &mut Axis, t: &mut f64, from: f64, to: f64, hold: usize) -> Vec<f64> {
+        let n = ((to - from).abs() / 25e-6).round() as usize;
+        let mut reliefs = Vec::new();
+        for k in 0..=n + hold {
+            let y = from + (to - from) * (k.min(n) as f64 / n as f64);
+            a.on_heartbeat(NmtState::Operational, *t);
+            a.on_sensor(sensor(y));
+            reliefs.push(a.step(*t).arrival_relief);
+            *t += 0.0025;
+        }
+        reliefs
+    }
+
+    #[test]
+    fn a_relieved_arrival_keeps_the_estimation_out_until_the_setpoint_changes() {
+        let text = include_str!("../../../config/solenoid.toml")
+            .replace("# arrival_relief_max", "arrival_relief_max")
+            .replace("# arrival_relief_gain", "arrival_relief_gain")
+            .replace("# arrival_lead_s", "arrival_lead_s")
+            .replace("# arrival_speed_max", "arrival_speed_max");
+        let c = Config::from_toml(&text, Path::new("config/solenoid.toml")).expect("valid");
+        let mut a = Axis::new(&c.axis[0], c.cycle.period_s).expect("valid axis");
+        let mut t = 0.0;
+        // First arrival: nothing learned yet, no relief; it ends 20 µm past, which teaches R+.
+        a.set_setpoint(0.005);
+        let first = approach(&mut a, &mut t, 0.004, 0.00502, 60);
+        assert!(first.iter().all(|&r| r == 0.0), "{first:?}");
+        assert!(!a.relief_hold);
+        // Second arrival upwards: relieved once, the estimation held out from then on.
+        a.set_setpoint(0.006);
+        let second = approach(&mut a, &mut t, 0.00502, 0.006, 20);
+        let relieved: Vec<f64> = second.iter().copied().filter(|&r| r != 0.0).collect();
+        assert_eq!(relieved.len(), 1, "{second:?}");
+        assert!(relieved[0] < 0.0, "{relieved:?}");
+        assert!(a.relief_hold);
+        // The same set-point again changes nothing; a new one ends the hold.
+        a.set_setpoint(0.006);
+        assert!(a.relief_hold);
+        a.set_setpoint(0.004);
+        assert!(!a.relief_hold);
     }
 
     #[test]
