@@ -288,6 +288,11 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
     }
     let dry_scale = dry_scale(spec, raw, &mut nonlinear);
     load_terms(spec, d, dry_scale.as_deref(), &mut terms, &mut nonlinear);
+    if spec.family == Family::MotorGear {
+        super::regress_gear::in_motion(spec, raw, d, &mut terms, &|light, t| {
+            load_terms(spec, light, dry_scale.as_deref(), t, &mut Vec::new())
+        })?;
+    }
     let n = d.y.len();
     let index = (0..n).filter(|&k| d.valid[k]).collect();
     let stiction = spec.effects.iter().any(|e| e.kind == EffectKind::Stiction);
