@@ -497,6 +497,43 @@ mod tests {
     }
 
     #[test]
+    fn the_motion_mask_marks_the_hops_and_never_a_held_load() {
+        // A load held between hops of 15 ms and 15 mrad, read by a sensor of 0.6 mrad quanta
+        // with noise (a fixed pseudo-random sequence): held samples must never count as
+        // sliding, the middle of each hop must.
+        let (dt, n) = (1e-3, 3000);
+        let mut d = held(0.0, n);
+        let mut moving = vec![false; n];
+        let (mut pos, mut noise) = (0.0f64, 12345u64);
+        for k in 0..n {
+            let phase = k % 200;
+            if (100..115).contains(&phase) {
+                // Half a cosine of speed: 15 mrad in 15 samples.
+                let s = (phase - 100) as f64 / 15.0;
+                pos += 1e-3 * (1.0 - (std::f64::consts::TAU * s).cos());
+                moving[k] = true;
+            }
+            noise = noise
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let r = (noise >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            d.output[k] = ((pos + 4e-4 * r) / 6e-4).round() * 6e-4;
+        }
+        let prep = prepare(&d, None);
+        let light = prepare(&d, Some(LIGHT_CORNER_PER_RATE / dt));
+        let mask = motion_mask(&d, &prep, &light);
+        for k in 0..n {
+            let near = (k.saturating_sub(1)..(k + 2).min(n)).any(|j| moving[j]);
+            if !near {
+                assert_eq!(mask[k], 0.0, "held load taken as sliding at {k}");
+            }
+        }
+        for hop in (100..n).step_by(200) {
+            assert_eq!(mask[hop + 7], 1.0, "middle of the hop at {hop}");
+        }
+    }
+
+    #[test]
     fn the_ratio_grows_with_one_over_cos_of_the_load_angle() {
         let mut s = gear(false, None);
         s.add_effect(EffectKind::VaryingRatio).expect("effect");
