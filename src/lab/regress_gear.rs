@@ -11,6 +11,10 @@
 //! friction, spring, payload, offset) is linear in its parameters, and the backlash play and the
 //! ratio limit of `varying_ratio` are searched on a grid.
 //!
+//! On the moving samples the balance is taken at each sample and masked to where the load slides
+//! before it is filtered ([`in_motion`]): a load with stiction moves in hops shorter than the
+//! filter's reach, and a held load's friction is whatever holds it.
+//!
 //! Backlash shows where the transmitted torque reverses: the load is free while the gear crosses
 //! the play, which a rigid contact cannot produce.
 
@@ -109,9 +113,9 @@ const MOTION_SPEED_SHARE: f64 = 0.02;
 ///
 /// So the balance is taken at each sample first, on lightly filtered signals (0.45 of the sample
 /// rate: a hop stays sharp, its noise is filtered afterwards), with the transmitted torque of the
-/// drive side run on the lightly filtered load angle, and multiplied by the motion mask `m_k` (1 where the load surely
-/// slides): a held sample's balance is zero with the true parameters, so dropping it is exact,
-/// and only a slow slide taken as held is information lost. Then each column goes through the
+/// drive side run on the lightly filtered load angle, and multiplied by the motion mask `m_k`
+/// (1 where the load surely slides): a held sample's balance is zero with the true parameters, so
+/// dropping it is exact, and only a slow slide taken as held is information lost. Then each column goes through the
 /// regression's filter, `φ_j = LP(m φ_j^raw)` (Σ θ_j LP(m φ_j) = LP(m Σ θ_j φ_j): still linear in
 /// the parameters). These columns replace the moving samples'; the samples at rest keep the
 /// columns of the filtered signals for the check of the friction the balance demands there.
@@ -505,27 +509,27 @@ mod tests {
         let mut d = held(0.0, n);
         let mut moving = vec![false; n];
         let (mut pos, mut noise) = (0.0f64, 12345u64);
-        for k in 0..n {
+        for (k, (out, mv)) in d.output.iter_mut().zip(moving.iter_mut()).enumerate() {
             let phase = k % 200;
             if (100..115).contains(&phase) {
-                // Half a cosine of speed: 15 mrad in 15 samples.
+                // A raised cosine of speed: 15 mrad in 15 samples.
                 let s = (phase - 100) as f64 / 15.0;
                 pos += 1e-3 * (1.0 - (std::f64::consts::TAU * s).cos());
-                moving[k] = true;
+                *mv = true;
             }
             noise = noise
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
             let r = (noise >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-            d.output[k] = ((pos + 4e-4 * r) / 6e-4).round() * 6e-4;
+            *out = ((pos + 4e-4 * r) / 6e-4).round() * 6e-4;
         }
         let prep = prepare(&d, None);
         let light = prepare(&d, Some(LIGHT_CORNER_PER_RATE / dt));
         let mask = motion_mask(&d, &prep, &light);
-        for k in 0..n {
+        for (k, m) in mask.iter().enumerate() {
             let near = (k.saturating_sub(1)..(k + 2).min(n)).any(|j| moving[j]);
             if !near {
-                assert_eq!(mask[k], 0.0, "held load taken as sliding at {k}");
+                assert_eq!(*m, 0.0, "held load taken as sliding at {k}");
             }
         }
         for hop in (100..n).step_by(200) {
