@@ -222,13 +222,12 @@ fn torque_commanded_gear_sweep() {
 
 /// The project's own gear plant (`src/physics`) in torque mode with backlash, under the same
 /// kind of loop: the diagnosis names backlash, and says none once the model has it. The drive is
-/// the heavier one ([`lab_common::heavier_gear`]): on the family's light gear the 1 kHz record
-/// does not resolve the play, and the diagnosis names a dead zone instead.
+/// the family's own light gear (`config/plants/motor_gear.toml`), whose load moves in short
+/// hops between stops; the lab's balance takes them sample by sample (`regress_gear::in_motion`).
 #[test]
 fn the_physics_gear_in_torque_mode_with_backlash_is_diagnosed_as_backlash() {
     use actuatord::physics::{CommandUnit, EffectKind, Family, PlantSpec};
     let mut spec = PlantSpec::new(Family::MotorGear);
-    lab_common::heavier_gear(&mut spec);
     spec.set_command(CommandUnit::NewtonMetre).expect("torque");
     for e in [
         EffectKind::Viscous,

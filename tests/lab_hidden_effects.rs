@@ -274,10 +274,6 @@ struct Row {
 fn run_case(c: &Case, seed: u64, seconds: f64) -> Row {
     let mut g = Lcg(seed.wrapping_mul(7919) + 17);
     let mut truth = PlantSpec::new(c.family);
-    if c.family == Family::MotorGear && c.hidden == Some(EffectKind::Backlash) {
-        // A play the 1 kHz record can see ([`lab_common::heavier_gear`]).
-        lab_common::heavier_gear(&mut truth);
-    }
     // The truth's effects (and the hidden one) with varied parameters.
     let mut all = c.truth.clone();
     if let Some(h) = c.hidden {

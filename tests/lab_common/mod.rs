@@ -42,31 +42,6 @@ impl Lcg {
     }
 }
 
-/// The motor and gear of the heavier reading of Bao et al.'s Table 1
-/// (`tests/data/motor_gear_heavy_reading.toml`: ratio 30, gears 0.02 kg m², lever 0.01 kg m²)
-/// on a motor_gear spec. For the lab's backlash cases: on the family's own light gear
-/// (`config/plants/motor_gear.toml`, 7e-4 kg m² on the drive side of the play, contact mode near
-/// 1300 rad/s) the drive crosses the play in two or three samples of a 1 kHz record, and the
-/// load's path bends within a sample (ω T ≈ 1.3) where the lab's drive side runs against the load
-/// angle drawn as a straight line between samples: there the play is barely visible
-/// (docs/lab.md). On the heavier drive (0.029 kg m², contact mode near 260 rad/s) a crossing
-/// takes more than ten samples.
-pub fn heavier_gear(spec: &mut PlantSpec) {
-    let heavy = actuatord::physics::load_spec(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/motor_gear_heavy_reading.toml"),
-    )
-    .expect("tests/data/motor_gear_heavy_reading.toml");
-    for key in [
-        "motor_gear.motor_inertia_kg_m2",
-        "motor_gear.ratio",
-        "motor_gear.gear_inertia_kg_m2",
-        "motor_gear.load_inertia_kg_m2",
-    ] {
-        let v = heavy.get(key).expect(key);
-        spec.set(key, v).expect(key);
-    }
-}
-
 /// Sensor noise and quantisation of a closed-loop record.
 pub fn sensor(spec: &mut PlantSpec, seed: u64) {
     spec.seed = seed;
