@@ -5,8 +5,7 @@
 use super::{mean_where, Cx, Evidence, LabEffect};
 use crate::lab::params::Key;
 use crate::lab::regress::{Dry, Term};
-use crate::lab::signals::Prepared;
-use crate::physics::{EffectKind, Family};
+use crate::physics::EffectKind;
 
 const COULOMB_POS: Key = Key::effect(EffectKind::Coulomb, "coulomb_pos");
 const COULOMB_NEG: Key = Key::effect(EffectKind::Coulomb, "coulomb_neg");
@@ -17,10 +16,6 @@ pub struct Coulomb;
 impl LabEffect for Coulomb {
     fn kind(&self) -> EffectKind {
         EffectKind::Coulomb
-    }
-
-    fn representable(&self, _family: Family, _d: &Prepared) -> bool {
-        true
     }
 
     fn load_terms(

@@ -65,7 +65,9 @@ pub trait LabEffect: Sync {
 
     /// True when the balance of forces of a `family` model can represent the effect with the
     /// signals `d` recorded (with a measured current, what acts before the coil is invisible).
-    fn representable(&self, family: Family, d: &Prepared) -> bool;
+    fn representable(&self, _family: Family, _d: &Prepared) -> bool {
+        true
+    }
 
     /// Grids of its nonlinear parameters, searched one after the other; none for an effect
     /// linear in its parameters.

@@ -4,8 +4,7 @@
 use super::{mean_where, Cx, Evidence, LabEffect};
 use crate::lab::params::Key;
 use crate::lab::regress::Term;
-use crate::lab::signals::Prepared;
-use crate::physics::{EffectKind, Family};
+use crate::physics::EffectKind;
 
 const BIAS: Key = Key::effect(EffectKind::Offset, "bias");
 
@@ -15,10 +14,6 @@ pub struct Offset;
 impl LabEffect for Offset {
     fn kind(&self) -> EffectKind {
         EffectKind::Offset
-    }
-
-    fn representable(&self, _family: Family, _d: &Prepared) -> bool {
-        true
     }
 
     fn load_terms(

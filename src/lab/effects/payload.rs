@@ -4,8 +4,8 @@
 use super::{corr, geometric, Cx, Evidence, Grid, LabEffect};
 use crate::lab::params::Key;
 use crate::lab::regress::Term;
-use crate::lab::signals::{abs_quantile, Prepared};
-use crate::physics::{EffectKind, Family};
+use crate::lab::signals::abs_quantile;
+use crate::physics::EffectKind;
 
 const MAX_LOAD: Key = Key::effect(EffectKind::Payload, "max_load");
 const FULL_SCALE: Key = Key::effect(EffectKind::Payload, "full_scale");
@@ -16,10 +16,6 @@ pub struct Payload;
 impl LabEffect for Payload {
     fn kind(&self) -> EffectKind {
         EffectKind::Payload
-    }
-
-    fn representable(&self, _family: Family, _d: &Prepared) -> bool {
-        true
     }
 
     fn grid(&self, cx: &Cx) -> anyhow::Result<Vec<Grid>> {

@@ -4,8 +4,7 @@
 use super::{corr, Cx, Evidence, LabEffect};
 use crate::lab::params::Key;
 use crate::lab::regress::Term;
-use crate::lab::signals::Prepared;
-use crate::physics::{EffectKind, Family};
+use crate::physics::EffectKind;
 
 const STIFFNESS: Key = Key::effect(EffectKind::Spring, "stiffness");
 const PRETENSION: Key = Key::effect(EffectKind::Spring, "pretension");
@@ -16,10 +15,6 @@ pub struct Spring;
 impl LabEffect for Spring {
     fn kind(&self) -> EffectKind {
         EffectKind::Spring
-    }
-
-    fn representable(&self, _family: Family, _d: &Prepared) -> bool {
-        true
     }
 
     fn load_terms(

@@ -4,8 +4,7 @@
 
 use super::{Breakaway, Evidence, LabEffect};
 use crate::lab::params::Key;
-use crate::lab::signals::Prepared;
-use crate::physics::{EffectKind, Family, PlantSpec};
+use crate::physics::{EffectKind, PlantSpec};
 
 const BREAKAWAY_POS: Key = Key::effect(EffectKind::Stiction, "breakaway_pos");
 const BREAKAWAY_NEG: Key = Key::effect(EffectKind::Stiction, "breakaway_neg");
@@ -16,10 +15,6 @@ pub struct Stiction;
 impl LabEffect for Stiction {
     fn kind(&self) -> EffectKind {
         EffectKind::Stiction
-    }
-
-    fn representable(&self, _family: Family, _d: &Prepared) -> bool {
-        true
     }
 
     fn breakaway(&self, spec: &PlantSpec) -> anyhow::Result<Option<Breakaway>> {

@@ -5,8 +5,8 @@
 use super::{corr, geometric, mean_where, Cx, Evidence, Grid, LabEffect};
 use crate::lab::params::Key;
 use crate::lab::regress::{Dry, Term};
-use crate::lab::signals::{abs_quantile, Prepared};
-use crate::physics::{EffectKind, Family, PlantSpec};
+use crate::lab::signals::abs_quantile;
+use crate::physics::{EffectKind, PlantSpec};
 
 const EXCESS_POS: Key = Key::effect(EffectKind::Stribeck, "excess_pos");
 const EXCESS_NEG: Key = Key::effect(EffectKind::Stribeck, "excess_neg");
@@ -19,10 +19,6 @@ pub struct Stribeck;
 impl LabEffect for Stribeck {
     fn kind(&self) -> EffectKind {
         EffectKind::Stribeck
-    }
-
-    fn representable(&self, _family: Family, _d: &Prepared) -> bool {
-        true
     }
 
     fn grid(&self, cx: &Cx) -> anyhow::Result<Vec<Grid>> {

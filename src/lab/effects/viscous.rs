@@ -4,8 +4,7 @@
 use super::{corr, Cx, Evidence, LabEffect};
 use crate::lab::params::Key;
 use crate::lab::regress::Term;
-use crate::lab::signals::Prepared;
-use crate::physics::{EffectKind, Family};
+use crate::physics::EffectKind;
 
 const DAMPING_POS: Key = Key::effect(EffectKind::Viscous, "damping_pos");
 const DAMPING_NEG: Key = Key::effect(EffectKind::Viscous, "damping_neg");
@@ -16,10 +15,6 @@ pub struct Viscous;
 impl LabEffect for Viscous {
     fn kind(&self) -> EffectKind {
         EffectKind::Viscous
-    }
-
-    fn representable(&self, _family: Family, _d: &Prepared) -> bool {
-        true
     }
 
     fn load_terms(
