@@ -17,6 +17,10 @@ impl LabEffect for Backlash {
         EffectKind::Backlash
     }
 
+    fn place(&self) -> u16 {
+        40
+    }
+
     fn representable(&self, family: Family, _d: &Prepared) -> bool {
         family == Family::MotorGear
     }

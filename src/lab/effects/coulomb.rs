@@ -18,6 +18,10 @@ impl LabEffect for Coulomb {
         EffectKind::Coulomb
     }
 
+    fn place(&self) -> u16 {
+        20
+    }
+
     fn load_terms(
         &self,
         cx: &Cx,

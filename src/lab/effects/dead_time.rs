@@ -17,6 +17,10 @@ impl LabEffect for DeadTime {
         EffectKind::DeadTime
     }
 
+    fn place(&self) -> u16 {
+        70
+    }
+
     fn representable(&self, family: Family, d: &Prepared) -> bool {
         command_visible(family, d)
     }

@@ -17,6 +17,10 @@ impl LabEffect for Deadzone {
         EffectKind::Deadzone
     }
 
+    fn place(&self) -> u16 {
+        80
+    }
+
     fn representable(&self, family: Family, d: &Prepared) -> bool {
         command_visible(family, d)
     }

@@ -20,6 +20,10 @@ impl LabEffect for DirectionAsymmetry {
         EffectKind::DirectionAsymmetry
     }
 
+    fn place(&self) -> u16 {
+        150
+    }
+
     fn representable(&self, family: Family, _d: &Prepared) -> bool {
         family == Family::LinearAxis
     }

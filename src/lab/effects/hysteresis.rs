@@ -18,6 +18,10 @@ impl LabEffect for Hysteresis {
         EffectKind::Hysteresis
     }
 
+    fn place(&self) -> u16 {
+        100
+    }
+
     fn representable(&self, family: Family, _d: &Prepared) -> bool {
         matches!(family, Family::LinearAxis | Family::Solenoid)
     }

@@ -4,9 +4,11 @@
 //! regression ([`super::regress`]) and the diagnosis ([`super::diagnose`]) run over these
 //! descriptions.
 //!
-//! To give a new effect its lab side: write `effects/<name>.rs` with a unit struct implementing
-//! [`LabEffect`] and add it to [`REGISTRY`] (its place there is the order of its columns and of
-//! its nonlinear parameters in a fit). An effect that changes the drive force of the one-body
+//! To give a new effect its lab side: write `effects/<name>.rs` (the name of its physics file)
+//! with a unit struct named like its physics type, implementing [`LabEffect`]. The modules and
+//! [`REGISTRY`] are made from the physics' catalogue (`physics::effects::catalogue!`), so the
+//! lab names no effect here; each side's [`LabEffect::place`] is the order of its columns and of
+//! its nonlinear parameters in a fit. An effect that changes the drive force of the one-body
 //! families (as `direction_asymmetry`, `position_stiffness` and `hysteresis` do) still needs its
 //! place in `regress.rs`'s drive.
 
@@ -16,23 +18,16 @@ use super::regress::{IdFit, Term};
 use super::signals::Prepared;
 use crate::physics::{EffectKind, Family, PlantSpec};
 
-pub mod backlash;
-pub mod coulomb;
-pub mod dead_time;
-pub mod deadzone;
-pub mod direction_asymmetry;
-pub mod hysteresis;
-pub mod offset;
-pub mod payload;
-pub mod position_stiffness;
-pub mod saturation;
-pub mod spring;
-pub mod stiction;
-pub mod stribeck;
-pub mod supply_friction;
-pub mod supply_gain;
-pub mod varying_ratio;
-pub mod viscous;
+/// One module per effect of the catalogue, and every lab side in catalogue order.
+macro_rules! lab_sides {
+    ($( $variant:ident => $file:ident : $ty:ty ),* $(,)?) => {
+        $( pub mod $file; )*
+
+        /// Every effect's lab side, in the catalogue's order.
+        const CATALOGUE: &[&dyn LabEffect] = &[ $( &$file::$variant ),* ];
+    };
+}
+crate::physics::effects::catalogue!(lab_sides);
 
 /// A model and the data it is fitted on, as an effect's lab side sees them.
 #[derive(Clone, Copy)]
@@ -62,6 +57,11 @@ pub struct Breakaway {
 pub trait LabEffect: Sync {
     /// The effect.
     fn kind(&self) -> EffectKind;
+
+    /// Its place among the lab sides (lowest first): the order of its columns in the balance
+    /// and of its nonlinear parameters in a fit. Unique (a test checks it); the places of the
+    /// effects known so far step by 10 to leave room between them.
+    fn place(&self) -> u16;
 
     /// True when the balance of forces of a `family` model can represent the effect with the
     /// signals `d` recorded (with a measured current, what acts before the coil is invisible).
@@ -126,27 +126,14 @@ pub trait LabEffect: Sync {
     fn evidence(&self, ev: &Evidence) -> String;
 }
 
-/// Every effect's lab side, in the order of their columns in the balance and of their
-/// nonlinear parameters in a fit.
-pub const REGISTRY: &[&dyn LabEffect] = &[
-    &viscous::Viscous,
-    &coulomb::Coulomb,
-    &stiction::Stiction,
-    &backlash::Backlash,
-    &varying_ratio::VaryingRatio,
-    &supply_gain::SupplyGain,
-    &dead_time::DeadTime,
-    &deadzone::Deadzone,
-    &saturation::Saturation,
-    &hysteresis::Hysteresis,
-    &supply_friction::SupplyFriction,
-    &stribeck::Stribeck,
-    &spring::Spring,
-    &position_stiffness::PositionStiffness,
-    &direction_asymmetry::DirectionAsymmetry,
-    &payload::Payload,
-    &offset::Offset,
-];
+/// Every effect's lab side, in the order of their places: the order of their columns in the
+/// balance and of their nonlinear parameters in a fit.
+pub static REGISTRY: std::sync::LazyLock<Vec<&'static dyn LabEffect>> =
+    std::sync::LazyLock::new(|| {
+        let mut sides = CATALOGUE.to_vec();
+        sides.sort_by_key(|e| e.place());
+        sides
+    });
 
 /// The lab's side of `kind`. Every effect has one (a test checks it).
 pub fn of(kind: EffectKind) -> anyhow::Result<&'static dyn LabEffect> {
@@ -260,6 +247,14 @@ mod tests {
             assert_eq!(n, 1, "{kind}: {n} lab sides");
         }
         assert_eq!(REGISTRY.len(), EffectKind::ALL.len());
+    }
+
+    #[test]
+    fn every_lab_side_has_a_place_of_its_own() {
+        let mut places: Vec<u16> = REGISTRY.iter().map(|e| e.place()).collect();
+        let n = places.len();
+        places.dedup();
+        assert_eq!(places.len(), n, "two lab sides share a place: {places:?}");
     }
 
     #[test]

@@ -16,6 +16,10 @@ impl LabEffect for Offset {
         EffectKind::Offset
     }
 
+    fn place(&self) -> u16 {
+        170
+    }
+
     fn load_terms(
         &self,
         cx: &Cx,

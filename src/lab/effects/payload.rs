@@ -18,6 +18,10 @@ impl LabEffect for Payload {
         EffectKind::Payload
     }
 
+    fn place(&self) -> u16 {
+        160
+    }
+
     fn grid(&self, cx: &Cx) -> anyhow::Result<Vec<Grid>> {
         // The clamp must act inside the record, or the payload is a spring.
         let ymax = abs_quantile(&cx.d.y, 0.98).max(1e-12);

@@ -24,6 +24,10 @@ impl LabEffect for PositionStiffness {
         EffectKind::PositionStiffness
     }
 
+    fn place(&self) -> u16 {
+        140
+    }
+
     fn representable(&self, family: Family, _d: &Prepared) -> bool {
         matches!(family, Family::LinearAxis | Family::Solenoid)
     }

@@ -19,6 +19,10 @@ impl LabEffect for Saturation {
         EffectKind::Saturation
     }
 
+    fn place(&self) -> u16 {
+        90
+    }
+
     fn representable(&self, family: Family, d: &Prepared) -> bool {
         command_visible(family, d)
     }

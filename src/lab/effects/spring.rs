@@ -17,6 +17,10 @@ impl LabEffect for Spring {
         EffectKind::Spring
     }
 
+    fn place(&self) -> u16 {
+        130
+    }
+
     fn load_terms(
         &self,
         cx: &Cx,

@@ -17,6 +17,10 @@ impl LabEffect for Stiction {
         EffectKind::Stiction
     }
 
+    fn place(&self) -> u16 {
+        30
+    }
+
     fn breakaway(&self, spec: &PlantSpec) -> anyhow::Result<Option<Breakaway>> {
         Ok(Some(Breakaway {
             pos: BREAKAWAY_POS.resolve(spec)?,

@@ -21,6 +21,10 @@ impl LabEffect for Stribeck {
         EffectKind::Stribeck
     }
 
+    fn place(&self) -> u16 {
+        120
+    }
+
     fn grid(&self, cx: &Cx) -> anyhow::Result<Vec<Grid>> {
         let vmax = abs_quantile(&cx.d.v, 0.95).max(1e-12);
         Ok(vec![(

@@ -18,6 +18,10 @@ impl LabEffect for SupplyFriction {
         EffectKind::SupplyFriction
     }
 
+    fn place(&self) -> u16 {
+        110
+    }
+
     fn representable(&self, family: Family, d: &Prepared) -> bool {
         d.supply.is_some() && matches!(family, Family::LinearAxis | Family::Pneumatic)
     }

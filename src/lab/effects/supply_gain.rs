@@ -18,6 +18,10 @@ impl LabEffect for SupplyGain {
         EffectKind::SupplyGain
     }
 
+    fn place(&self) -> u16 {
+        60
+    }
+
     fn representable(&self, family: Family, d: &Prepared) -> bool {
         d.supply.is_some() && command_visible(family, d)
     }

@@ -17,6 +17,10 @@ impl LabEffect for VaryingRatio {
         EffectKind::VaryingRatio
     }
 
+    fn place(&self) -> u16 {
+        50
+    }
+
     fn representable(&self, family: Family, _d: &Prepared) -> bool {
         family == Family::MotorGear
     }

@@ -17,6 +17,10 @@ impl LabEffect for Viscous {
         EffectKind::Viscous
     }
 
+    fn place(&self) -> u16 {
+        10
+    }
+
     fn load_terms(
         &self,
         cx: &Cx,

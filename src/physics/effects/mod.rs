@@ -1,9 +1,10 @@
 //! Physical effects, one file each. An effect is a small `Copy` struct with its equation, its
 //! parameters (base name, quantity, bounds, default) and the function the plant families call.
 //!
-//! To add an effect: write `effects/<name>.rs` with a struct implementing [`EffectDef`], add one
-//! line to the `registry!` call below, and use the new field of [`Effects`] in the families
-//! where it acts.
+//! To add an effect: write `effects/<name>.rs` with a struct implementing [`EffectDef`] and add
+//! one line to the `catalogue!` below. An effect that is a force on the moving body says so in
+//! [`EffectDef::load_force`] and every family adds it; one that acts elsewhere (the power stage,
+//! the drive, the gear) is used by name in the families where it acts.
 
 use super::family::Family;
 use super::params::ParamDef;
@@ -58,6 +59,14 @@ pub trait EffectDef: Sized + Copy {
     fn check(_values: &[f64]) -> Result<(), (usize, String)> {
         Ok(())
     }
+    /// For an effect that is a force on the moving body (the load of `motor_gear`): that force
+    /// at position `y` and velocity `v`. The families add these forces, in catalogue order,
+    /// after the drive's ([`Effects::add_load_forces`]); `None` for an effect that acts
+    /// elsewhere.
+    #[inline(always)]
+    fn load_force(&self, _y: f64, _v: f64) -> Option<f64> {
+        None
+    }
 }
 
 macro_rules! registry {
@@ -106,29 +115,51 @@ macro_rules! registry {
             pub fn has(&self, kind: EffectKind) -> bool {
                 match kind { $( EffectKind::$variant => self.$field.is_some() ),* }
             }
+
+            /// Add to `f` the force of every present effect that is a force on the moving body
+            /// (position `y`, velocity `v`), in catalogue order.
+            #[inline(always)]
+            pub fn add_load_forces(&self, y: f64, v: f64, f: &mut f64) {
+                $(
+                    if let Some(force) = self.$field.as_ref().and_then(|e| e.load_force(y, v)) {
+                        *f += force;
+                    }
+                )*
+            }
         }
     };
 }
 
-registry! {
-    Viscous => viscous: Viscous,
-    Coulomb => coulomb: Coulomb,
-    Stiction => stiction: Stiction,
-    Stribeck => stribeck: Stribeck,
-    Spring => spring: Spring,
-    PositionStiffness => position_stiffness: PositionStiffness,
-    Backlash => backlash: Backlash,
-    Hysteresis => hysteresis: Hysteresis,
-    DirectionAsymmetry => direction_asymmetry: DirectionAsymmetry,
-    Deadzone => deadzone: Deadzone,
-    SupplyGain => supply_gain: SupplyGain,
-    SupplyFriction => supply_friction: SupplyFriction,
-    DeadTime => dead_time: DeadTime,
-    Saturation => saturation: Saturation,
-    Payload => payload: Payload,
-    Offset => offset: Offset,
-    VaryingRatio => varying_ratio: VaryingRatio,
+/// The catalogue of effects, one line each (`Variant => file: Type`), in the order plant files
+/// list them: the one list from which the physics' [`EffectKind`] and [`Effects`] and the lab's
+/// registry of effects (`lab/effects/<file>.rs`, a unit struct named like the variant) are
+/// made. `catalogue!(m)` calls the macro `m` with the list.
+macro_rules! catalogue {
+    ($m:path) => {
+        $m! {
+            Viscous => viscous: Viscous,
+            Coulomb => coulomb: Coulomb,
+            Stiction => stiction: Stiction,
+            Stribeck => stribeck: Stribeck,
+            Spring => spring: Spring,
+            PositionStiffness => position_stiffness: PositionStiffness,
+            Backlash => backlash: Backlash,
+            Hysteresis => hysteresis: Hysteresis,
+            DirectionAsymmetry => direction_asymmetry: DirectionAsymmetry,
+            Deadzone => deadzone: Deadzone,
+            SupplyGain => supply_gain: SupplyGain,
+            SupplyFriction => supply_friction: SupplyFriction,
+            DeadTime => dead_time: DeadTime,
+            Saturation => saturation: Saturation,
+            Payload => payload: Payload,
+            Offset => offset: Offset,
+            VaryingRatio => varying_ratio: VaryingRatio,
+        }
+    };
 }
+pub(crate) use catalogue;
+
+catalogue!(registry);
 
 impl EffectKind {
     /// Look an effect up by name.

@@ -23,4 +23,8 @@ impl EffectDef for Offset {
     fn from_values(v: &[f64]) -> Self {
         Offset { bias: v[0] }
     }
+    #[inline(always)]
+    fn load_force(&self, _y: f64, _v: f64) -> Option<f64> {
+        Some(self.bias)
+    }
 }

@@ -39,4 +39,8 @@ impl EffectDef for Payload {
             full_scale: v[1],
         }
     }
+    #[inline(always)]
+    fn load_force(&self, y: f64, _v: f64) -> Option<f64> {
+        Some(self.force(y))
+    }
 }

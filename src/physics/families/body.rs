@@ -203,15 +203,8 @@ impl<D: Drive> BodyPlant<D> {
         if let Some(h) = self.fx.hysteresis {
             f = h.play(z, f);
         }
-        if let Some(s) = self.fx.spring {
-            f += s.force(y);
-        }
-        if let Some(l) = self.fx.payload {
-            f += l.force(y);
-        }
-        if let Some(o) = self.fx.offset {
-            f += o.bias;
-        }
+        // Spring, payload, offset and any other force on the body.
+        self.fx.add_load_forces(y, x[1], &mut f);
         f
     }
 

@@ -374,15 +374,8 @@ impl MotorGearPlant {
     fn load_torque(&self, x: &[f64; 8], contact: Contact) -> f64 {
         let th = x[TL];
         let mut f = self.coupling(x, contact);
-        if let Some(s) = self.fx.spring {
-            f += s.force(th);
-        }
-        if let Some(l) = self.fx.payload {
-            f += l.force(th);
-        }
-        if let Some(o) = self.fx.offset {
-            f += o.bias;
-        }
+        // Spring, payload, offset and any other torque on the load.
+        self.fx.add_load_forces(th, x[WL], &mut f);
         f
     }
 
