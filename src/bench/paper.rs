@@ -239,6 +239,14 @@ fn solenoid_dither() -> Result<Dither, ParamError> {
     })
 }
 
+/// The paper's PIDT1 for the solenoid (eq. 28, `Y` in mm, hence ×1000 for V per m) as the
+/// daemon's control law, output 0-24 V.
+fn paper_pidt1() -> Result<ControlLaw, BenchError> {
+    Ok(ControlLaw::linear(LinearController::Discrete(Box::new(
+        DiscreteController::pidt1([2231.0, -4204.0, 2000.0], 0.616, 0.0, 24.0)?,
+    ))))
+}
+
 /// The paper's small-step experiment on the solenoid plant `plant_text` (TOML, named `name` in
 /// errors): steps of [`SMALL_STEP_SIZE_M`] around [`SMALL_STEP_CENTRE_M`], each held
 /// [`SMALL_STEP_HOLD_S`], the offset read over the last [`SMALL_STEP_READ_S`] of each dwell,
@@ -260,10 +268,7 @@ pub fn solenoid_small_step_with(
 ) -> Result<SmallStepResult, BenchError> {
     let mut plant = plant_from_str(plant_text, name)?;
     let t0 = SOLENOID_PERIOD_S;
-    // Paper PIDT1, Y in mm → ×1000 for V per m.
-    let mut law = ControlLaw::linear(LinearController::Discrete(Box::new(
-        DiscreteController::pidt1([2231.0, -4204.0, 2000.0], 0.616, 0.0, 24.0)?,
-    )));
+    let mut law = paper_pidt1()?;
     let mut friction = AdaptiveFriction::new(friction_config)?;
     let mut dither = solenoid_dither()?;
     let hold = (SMALL_STEP_HOLD_S / t0).round() as usize;
@@ -508,12 +513,20 @@ pub fn pneumatic_settling(
         PneumaticStrategy::Scheduled => PNEUMATIC_SUPPLIES_PA.iter().map(|&p| point(p)).collect(),
         PneumaticStrategy::Adaptive => vec![point(60_000.0)],
     };
-    let mut ctl = PneumaticAdaptive::new(&PneumaticAdaptiveConfig::membrane_drive(
-        t0,
-        schedule,
-        r,
-        strategy == PneumaticStrategy::Adaptive,
-    ))?;
+    // The daemon's law for a pneumatic axis with scheduled drive gains: the direction P
+    // controller makes the duty; the linear controller of `config/pneumatic.toml`'s
+    // `[axis.controller]` comes with it, unused while the table schedules the gains.
+    let mut law = ControlLaw::linear(LinearController::Discrete(Box::new(
+        DiscreteController::new(&[], &[1000.0], -1.0, 1.0)?,
+    )))
+    .with_direction_p(PneumaticAdaptive::new(
+        &PneumaticAdaptiveConfig::membrane_drive(
+            t0,
+            schedule,
+            r,
+            strategy == PneumaticStrategy::Adaptive,
+        ),
+    )?);
     let hold = (1.5 / t0).round() as usize;
     let base = 0.008;
     let mut setpoints = vec![base];
@@ -531,8 +544,12 @@ pub fn pneumatic_settling(
         let mut acc = 0.0;
         let tail = (0.3 / t0).round() as usize;
         for k in 0..hold {
-            let out = ctl.step(w, y, plant.measure().supply_pressure_pa);
-            plant.step(out.duty, t0);
+            // The daemon's stages: estimation with this cycle's position, then the duty.
+            law.estimate(y, false);
+            let duty = law
+                .direction_p(w, y, plant.measure().supply_pressure_pa)
+                .ok_or_else(|| BenchError::Failed("pneumatic: no direction P controller".into()))?;
+            plant.step(duty, t0);
             y = plant.measure().position;
             let e = (w - y).abs();
             if e > PNEUMATIC_BAND * PNEUMATIC_STEP_M {
@@ -682,7 +699,7 @@ pub fn solenoid_observer_config() -> ObserverConfig {
 pub fn observer_friction_rise() -> Result<FrictionRace, BenchError> {
     let mut plant = plant_from_str(SOLENOID_PLANT, "config/plants/solenoid.toml")?;
     let t0 = SOLENOID_PERIOD_S;
-    let mut pid = DiscreteController::pidt1([2231.0, -4204.0, 2000.0], 0.616, 0.0, 24.0)?;
+    let mut law = paper_pidt1()?;
     let mut obs = DisturbanceObserver::new(solenoid_observer_config())?;
     let (period, t_rise, ramp, factor, t_end) = (2.0, 12.0, 60.0, 4.0, 72.0);
     let per = (period / t0).round() as usize;
@@ -714,7 +731,8 @@ pub fn observer_friction_rise() -> Result<FrictionRace, BenchError> {
         };
         let w = 0.005 + 0.002 * tri;
         let e = w - y;
-        let u = pid.step(e);
+        // The daemon's composition with nothing added: the PIDT1's output within its limits.
+        let u = law.command(e, y, 0.0, 0.0, 1.0);
         plant.step(u, t0);
         y = plant.measure().position;
         let out = obs.step(y, u);

@@ -2,7 +2,8 @@
 //! static correction, or the pneumatic drive's scheduled (and adapted) direction P controller.
 //! Built once from `[axis.controller]`, `[axis.correction]` and `[axis.schedule]`; it composes
 //! the command with what the friction part adds, within the limits the supply allows. The
-//! benchmarks compose theirs with the same type ([`ControlLaw::linear`]).
+//! benchmarks compose theirs with the same type ([`ControlLaw::linear`],
+//! [`ControlLaw::with_direction_p`]).
 
 use super::super::config::AxisConfig;
 use crate::control::robust::StateSpaceController;
@@ -71,6 +72,16 @@ impl ControlLaw {
             pneumatic: None,
             pneumatic_step: PneumaticStep::default(),
             pneumatic_eigenvalue: 1.0,
+        }
+    }
+
+    /// The same law with the pneumatic drive's direction P controller, which then makes the
+    /// command in place of `self`'s linear controller (a benchmark's pneumatic loop, as an axis
+    /// with `[axis.schedule]` drive gains runs it).
+    pub fn with_direction_p(self, pneumatic: PneumaticAdaptive) -> Self {
+        Self {
+            pneumatic: Some(pneumatic),
+            ..self
         }
     }
 
