@@ -12,30 +12,17 @@ use crate::control::{
     AdaptiveFrictionSection, ControllerSection, CorrectionSection, DitherSection,
     FrictionCompensationSection, LearnedTableSection, PneumaticAdaptiveSection, ScheduleSection,
 };
+use crate::declare_section;
+pub use crate::device::objects::CommandKind;
 use crate::param::{Kind, ParamError, ParamValue, COMMAND_UNIT};
 use crate::supervise::{
     FaultReactionsSection, LimitsSection, ObserverSection, ParameterEstimationSection,
 };
-use crate::{declare_choice, declare_section};
 
 /// "> 0", finite.
 const POSITIVE: f64 = f64::MIN_POSITIVE;
 /// The largest finite value.
 const FINITE: f64 = f64::MAX;
-
-declare_choice! {
-    /// What the actuator command means.
-    pub enum CommandKind {
-        /// Terminal voltage, V (solenoid, motor).
-        Voltage = voltage,
-        /// Signed valve duty, -1..1 (pneumatic).
-        Duty = duty,
-        /// Torque in N·m, force in N on a linear axis: a CiA 402 drive's target torque (CST).
-        Torque = torque,
-        /// Velocity in m/s (rad/s): a CiA 402 drive's target velocity (CSV).
-        Velocity = velocity,
-    }
-}
 
 /// A section of the axis, checked by its own declaration (with its keys' prefix) where the axis
 /// is validated.

@@ -2,7 +2,7 @@
 //! the way SDO writes reach the configuration at a cycle boundary.
 
 use super::axis::AxisStep;
-use super::config::{AxisConfig, CommandKind, Config, FrictionCompensationSection};
+use super::config::{AxisConfig, Config, FrictionCompensationSection};
 use super::learned::AxisLearned;
 use super::record::CycleRecord;
 use crate::canopen::od::{BuildError, Handle, PendingWrite};
@@ -10,7 +10,7 @@ use crate::canopen::{ObjectDictionary, Value};
 use crate::device::objects::axis_intelligence::{
     self, symptom_bits, IntelligenceParameters, BAND_NAMES, ESTIMATE_NAMES, NOMINAL_NAMES,
 };
-use crate::device::objects::{daemon_dictionary, index, AxisParameters, Command, DeviceParameters};
+use crate::device::objects::{daemon_dictionary, index, AxisParameters, DeviceParameters};
 use crate::param::Declared;
 use crate::param_key;
 
@@ -20,12 +20,7 @@ pub fn axis_parameters(a: &AxisConfig) -> AxisParameters {
     AxisParameters {
         name: a.name.clone(),
         actuator_node_id: a.actuator_node_id,
-        command: match a.command {
-            CommandKind::Voltage => Command::Voltage,
-            CommandKind::Duty => Command::Duty,
-            CommandKind::Torque => Command::Torque,
-            CommandKind::Velocity => Command::Velocity,
-        },
+        command: a.command,
         safe_command: a.safe_command,
         initial_setpoint_m: a.initial_setpoint_m,
         setpoint_rate_max_m_per_s: a.setpoint_rate_max_m_per_s.unwrap_or(inf),

@@ -15,7 +15,7 @@
 //! Entry names are the config keys (and, for results, the names of the state file and the
 //! recording), unique within an axis.
 
-use super::daemon_objects::Command;
+use super::daemon_objects::CommandKind;
 use crate::canopen::od::EntrySpec;
 use crate::canopen::od::{ObjectDictionaryBuilder, Value};
 use crate::control::{AdaptiveFrictionSection, ScheduleSection};
@@ -77,7 +77,7 @@ pub const BAND_NAMES: [&str; 4] = [
 /// and line of documentation, in declaration order. An array declared with points gives one
 /// entry per point: every slot when writable (0 where the array is shorter), the values it has
 /// when read-only. Read-only entries carry no range.
-pub(super) fn declared_entries<S: Declared>(section: &S, command: Command) -> Vec<EntrySpec> {
+pub(super) fn declared_entries<S: Declared>(section: &S, command: CommandKind) -> Vec<EntrySpec> {
     let unit = |unit: &'static str| match unit {
         COMMAND_UNIT => command.unit(),
         COMMAND_PER_M_UNIT => command.per_m(),
@@ -111,7 +111,11 @@ pub(super) fn declared_entries<S: Declared>(section: &S, command: Command) -> Ve
 
 /// The entry of one declared scalar, writable in pre-operational, within its declared range
 /// (or the command's, where declared so); `None` for what the dictionary does not carry.
-fn declared_entry<S: Declared>(section: &S, p: &ParamSpec, command: Command) -> Option<EntrySpec> {
+fn declared_entry<S: Declared>(
+    section: &S,
+    p: &ParamSpec,
+    command: CommandKind,
+) -> Option<EntrySpec> {
     let v = section.get(p.name)?;
     let side = |x: f64, f: fn(f64) -> Value| x.is_finite().then(|| f(x));
     Some(match (p.kind, p.bits) {
@@ -140,7 +144,7 @@ pub fn intelligence_objects(
     i: usize,
     at: impl Fn(u16) -> u16,
     p: &IntelligenceParameters,
-    command: Command,
+    command: CommandKind,
 ) -> ObjectDictionaryBuilder {
     let axis = Some(i);
     if let Some(a) = &p.adaptive_friction {

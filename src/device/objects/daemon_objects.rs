@@ -107,34 +107,35 @@ fn version_number() -> u32 {
     (major << 16) | (minor & 0xFFFF)
 }
 
-/// What an axis commands, for the units of the entries that carry a command.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Command {
-    /// Terminal voltage, V.
-    #[default]
-    Voltage,
-    /// Signed valve duty, -1..1, no unit.
-    Duty,
-    /// A drive's target torque, N m (a force in N on a linear motor).
-    Torque,
-    /// A drive's target velocity, m/s (rad/s on a rotary axis).
-    Velocity,
+crate::declare_choice! {
+    /// What the actuator command means (an axis' `command` key); it gives the units of the
+    /// entries that carry a command.
+    pub enum CommandKind {
+        /// Terminal voltage, V (solenoid, motor).
+        Voltage = voltage,
+        /// Signed valve duty, -1..1, no unit (pneumatic).
+        Duty = duty,
+        /// Torque in N m, force in N on a linear axis: a CiA 402 drive's target torque (CST).
+        Torque = torque,
+        /// Velocity in m/s (rad/s on a rotary axis): a CiA 402 drive's target velocity (CSV).
+        Velocity = velocity,
+    }
 }
 
-impl Command {
+impl CommandKind {
     /// The `command_kind` entry's code.
     pub fn code(self) -> u8 {
         match self {
-            Command::Voltage => 0,
-            Command::Duty => 1,
-            Command::Torque => 2,
-            Command::Velocity => 3,
+            CommandKind::Voltage => 0,
+            CommandKind::Duty => 1,
+            CommandKind::Torque => 2,
+            CommandKind::Velocity => 3,
         }
     }
 
     /// The largest magnitude of a command value: 1 for a duty, 1000 (V, N m, m/s) otherwise.
     pub fn bound(self) -> f64 {
-        if self == Command::Duty {
+        if self == CommandKind::Duty {
             1.0
         } else {
             1000.0
@@ -144,30 +145,30 @@ impl Command {
     /// The unit of a command value.
     pub fn unit(self) -> &'static str {
         match self {
-            Command::Voltage => "V",
-            Command::Duty => "",
-            Command::Torque => "N m",
-            Command::Velocity => "m/s",
+            CommandKind::Voltage => "V",
+            CommandKind::Duty => "",
+            CommandKind::Torque => "N m",
+            CommandKind::Velocity => "m/s",
         }
     }
 
     /// The unit of a controller coefficient: command per m of error.
     pub fn per_m(self) -> &'static str {
         match self {
-            Command::Voltage => "V/m",
-            Command::Duty => "1/m",
-            Command::Torque => "N m/m",
-            Command::Velocity => "1/s",
+            CommandKind::Voltage => "V/m",
+            CommandKind::Duty => "1/m",
+            CommandKind::Torque => "N m/m",
+            CommandKind::Velocity => "1/s",
         }
     }
 
     /// The unit of the drive's force per command.
     pub fn force_per_command(self) -> &'static str {
         match self {
-            Command::Voltage => "N/V",
-            Command::Duty => "N",
-            Command::Torque => "N/(N m)",
-            Command::Velocity => "N s/m",
+            CommandKind::Voltage => "N/V",
+            CommandKind::Duty => "N",
+            CommandKind::Torque => "N/(N m)",
+            CommandKind::Velocity => "N s/m",
         }
     }
 }
@@ -179,7 +180,7 @@ pub struct AxisParameters {
     pub name: String,
     pub actuator_node_id: u8,
     /// What the axis commands: the unit of its command entries.
-    pub command: Command,
+    pub command: CommandKind,
     pub safe_command: f64,
     pub initial_setpoint_m: f64,
     /// Rate limit of the reference, m/s; infinite = steps.
@@ -198,7 +199,7 @@ impl Default for AxisParameters {
         Self {
             name: "axis".into(),
             actuator_node_id: 16,
-            command: Command::Voltage,
+            command: CommandKind::Voltage,
             safe_command: 0.0,
             initial_setpoint_m: 0.0,
             setpoint_rate_max_m_per_s: f64::INFINITY,

@@ -5,8 +5,8 @@ pub mod axis_intelligence;
 mod daemon_objects;
 
 pub use daemon_objects::{
-    consumer_heartbeat_entry, daemon_dictionary, index, AxisParameters, Command, DeviceParameters,
-    MAX_AXES,
+    consumer_heartbeat_entry, daemon_dictionary, index, AxisParameters, CommandKind,
+    DeviceParameters, MAX_AXES,
 };
 
 #[cfg(test)]

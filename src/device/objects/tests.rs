@@ -169,10 +169,10 @@ fn command_entries_carry_the_unit_of_the_axis_command() {
     };
     // command, its code, coefficient q_j, force gain
     let expected = [
-        (Command::Voltage, 0, "V", "V/m", "N/V"),
-        (Command::Duty, 1, "", "1/m", "N"),
-        (Command::Torque, 2, "N m", "N m/m", "N/(N m)"),
-        (Command::Velocity, 3, "m/s", "1/s", "N s/m"),
+        (CommandKind::Voltage, 0, "V", "V/m", "N/V"),
+        (CommandKind::Duty, 1, "", "1/m", "N"),
+        (CommandKind::Torque, 2, "N m", "N m/m", "N/(N m)"),
+        (CommandKind::Velocity, 3, "m/s", "1/s", "N s/m"),
     ];
     for (command, code, unit, per_m, force_gain) in expected {
         // Within a duty's bounds, so that every command kind takes them.
