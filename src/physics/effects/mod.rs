@@ -256,3 +256,30 @@ impl DryFriction {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The forces on the body are those of the effects that are one (spring, payload, offset),
+    /// and only those: friction, which the families add in their own place, stays out.
+    #[test]
+    fn load_forces_are_the_spring_payload_and_offset() {
+        let mut e = Effects::default();
+        e.set(EffectKind::Spring, &[1000.0, 2.0]);
+        e.set(EffectKind::Payload, &[5.0, 0.1]);
+        e.set(EffectKind::Offset, &[0.5]);
+        e.set(EffectKind::Viscous, &[10.0, 10.0]);
+        e.set(EffectKind::Coulomb, &[1.0, 1.0]);
+        let (y, v) = (0.02, 0.3);
+        let mut f = 0.0;
+        e.add_load_forces(y, v, &mut f);
+        // -(F_0 + c y) - F_max y / y_full + F_b
+        let expected = -(2.0 + 1000.0 * 0.02) - 5.0 * (0.02 / 0.1) + 0.5;
+        assert!((f - expected).abs() < 1e-12, "{f} != {expected}");
+
+        let mut untouched = 7.0;
+        Effects::default().add_load_forces(y, v, &mut untouched);
+        assert_eq!(untouched, 7.0);
+    }
+}
