@@ -167,15 +167,25 @@ pub fn diagnose(
         }
     }
     let total = kinds.len();
+    // Candidates with more grid searches take longer: started first, so that the workers finish
+    // together (the results go back to the catalogue's order below).
+    let searches = |k: EffectKind| -> usize {
+        let mut s = base_spec.clone();
+        if s.add_effect(k).is_err() {
+            return 0;
+        }
+        super::regress::grid_for(&s, k, d, data).map_or(0, |g| g.len())
+    };
+    let mut order: Vec<usize> = (0..kinds.len()).collect();
+    order.sort_by_key(|&i| std::cmp::Reverse(searches(kinds[i])));
     let done = std::sync::atomic::AtomicUsize::new(0);
     let next = std::sync::atomic::AtomicUsize::new(0);
     let results = std::sync::Mutex::new(Vec::new());
     let work = || -> anyhow::Result<()> {
         loop {
-            let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-            if i >= kinds.len() {
+            let Some(&i) = order.get(next.fetch_add(1, std::sync::atomic::Ordering::SeqCst)) else {
                 return Ok(());
-            }
+            };
             let kind = kinds[i];
             let c = candidate(
                 kind,
