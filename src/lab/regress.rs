@@ -1076,17 +1076,17 @@ pub fn fit_spec_on(
             }
         }
         for i in 0..searches {
-            let mut chosen = best[i].take();
-            if name.starts_with("backlash.gap") {
-                chosen = chosen.map(|(r, g, bal)| {
-                    let (r2, g2) = smallest_play_as_good(&scored[i], (r, g));
-                    (r2, g2, bal)
-                });
-            }
-            if let Some((_, g, bal)) = chosen {
-                set_nonlinear(&mut specs[i], &name, g)?;
-                kept[i] = Some((specs[i].clone(), bal));
-            }
+            let Some((r, g, bal)) = best[i].take() else {
+                continue;
+            };
+            // The play kept may be smaller than the best point's: its balance is built again.
+            let chosen = if name.starts_with("backlash.gap") {
+                smallest_play_as_good(&scored[i], (r, g)).1
+            } else {
+                g
+            };
+            set_nonlinear(&mut specs[i], &name, chosen)?;
+            kept[i] = (chosen.to_bits() == g.to_bits()).then(|| (specs[i].clone(), bal));
         }
     }
     let mut out = Vec::with_capacity(searches);
