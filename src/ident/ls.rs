@@ -202,6 +202,142 @@ pub fn least_squares_with(
     })
 }
 
+/// Rows of a regressor rotated into its triangular factor at a time: small enough that the
+/// block and the factor stay in the first-level cache.
+const FACTOR_BLOCK_ROWS: usize = 64;
+
+/// The triangular factor of a tall regressor, `Ψ D⁻¹ = Q R` with `D` the column norms, taken
+/// row block by row block: each block is stacked under the factor so far and rotated into it by
+/// Householder reflections (a sequential tall-skinny QR). `Q` is never formed.
+///
+/// Every least-squares problem on a subset of the columns, with a target that is a combination
+/// of the others, then reduces to one of `p × p` ([`least_squares_rotated`]): `Qᵀ Ψ_S` and
+/// `Qᵀ y` are columns of `R D`. The regressor is read once, in place, however many subsets are
+/// solved on it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColumnFactor {
+    /// Upper triangular `R` of the column-equilibrated regressor (`p × p`).
+    pub r: DMatrix<f64>,
+    /// Column norms `D` over the rows taken (0 for a column that is zero there).
+    pub norms: DVector<f64>,
+    /// Rows taken, `N`.
+    pub samples: usize,
+}
+
+impl ColumnFactor {
+    /// The factor of the regressor whose column `j` is `columns[j][k]` for `k` in `rows`.
+    pub fn new(columns: &[&[f64]], rows: &[usize]) -> ColumnFactor {
+        let p = columns.len();
+        let norms = DVector::from_iterator(
+            p,
+            columns
+                .iter()
+                .map(|c| rows.iter().map(|&k| c[k] * c[k]).sum::<f64>().sqrt()),
+        );
+        let scale: Vec<f64> = norms
+            .iter()
+            .map(|&n| if n > 0.0 { 1.0 / n } else { 0.0 })
+            .collect();
+        // Column-major work area: rows 0..p the factor so far, rows p.. the next block.
+        let ld = p + FACTOR_BLOCK_ROWS;
+        let mut w = vec![0.0; ld * p];
+        let mut v = [0.0; FACTOR_BLOCK_ROWS];
+        for block in rows.chunks(FACTOR_BLOCK_ROWS) {
+            let b = block.len();
+            for (j, c) in columns.iter().enumerate() {
+                let col = &mut w[j * ld + p..j * ld + p + b];
+                for (x, &k) in col.iter_mut().zip(block) {
+                    *x = c[k] * scale[j];
+                }
+            }
+            for j in 0..p {
+                // Reflection of `[R_jj; block column j]` onto `β e_1` (LAPACK's convention:
+                // `H = I - τ u uᵀ`, `u_0 = 1`); the factor's rows below `j` are zero in column j.
+                let alpha = w[j * ld + j];
+                let below = &w[j * ld + p..j * ld + p + b];
+                let sigma = dot(below, below);
+                if sigma == 0.0 {
+                    continue;
+                }
+                let norm = (alpha * alpha + sigma).sqrt();
+                let beta = if alpha > 0.0 { -norm } else { norm };
+                let tau = (beta - alpha) / beta;
+                let inv = 1.0 / (alpha - beta);
+                for (u, &x) in v.iter_mut().zip(below) {
+                    *u = x * inv;
+                }
+                w[j * ld + j] = beta;
+                w[j * ld + p..j * ld + p + b].fill(0.0);
+                for c in j + 1..p {
+                    let col = &mut w[c * ld..c * ld + p + b];
+                    let s = tau * (col[j] + dot(&v[..b], &col[p..p + b]));
+                    col[j] -= s;
+                    for (x, u) in col[p..p + b].iter_mut().zip(&v[..b]) {
+                        *x -= s * u;
+                    }
+                }
+            }
+        }
+        let r = DMatrix::from_fn(p, p, |i, j| if i <= j { w[j * ld + i] } else { 0.0 });
+        ColumnFactor {
+            r,
+            norms,
+            samples: rows.len(),
+        }
+    }
+
+    /// `Qᵀ Ψ_j`, column `j` of the regressor in the factor's coordinates (`R_j D_j`).
+    pub fn rotated_column(&self, j: usize) -> DVector<f64> {
+        self.r.column(j) * self.norms[j]
+    }
+}
+
+/// `Σ x_i y_i` in four interleaved partial sums (which the compiler can keep in vector lanes).
+fn dot(x: &[f64], y: &[f64]) -> f64 {
+    let mut acc = [0.0; 4];
+    let (xc, yc) = (x.chunks_exact(4), y.chunks_exact(4));
+    let tail: f64 = xc
+        .remainder()
+        .iter()
+        .zip(yc.remainder())
+        .map(|(a, b)| a * b)
+        .sum();
+    for (a, b) in xc.zip(yc) {
+        for l in 0..4 {
+            acc[l] += a[l] * b[l];
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+/// Least squares on a regressor known by its rotation: `a = Qᵀ Ψ` and `b = Qᵀ y` for `y` in the
+/// range of `Q` (the target a combination of the factor's columns, see [`ColumnFactor`]), on
+/// `samples` rows. The estimate and the residual sum of squares are those of the full problem,
+/// and so are the statistics (on `samples - p` degrees of freedom); `residuals` are the reduced
+/// problem's, `b - a θ̂`.
+pub fn least_squares_rotated(
+    a: &DMatrix<f64>,
+    b: &DVector<f64>,
+    samples: usize,
+    options: &LsOptions,
+) -> Result<LsFit, IdentError> {
+    let p = a.ncols();
+    if samples <= p {
+        return Err(IdentError::TooFewSamples {
+            needed: p + 1,
+            got: samples,
+        });
+    }
+    let mut fit = least_squares_with(a, b, options)?;
+    // Same estimate and residual; only the degrees of freedom are the full problem's.
+    let ratio = fit.dof() as f64 / (samples - p) as f64;
+    fit.residual_variance *= ratio;
+    fit.covariance *= ratio;
+    fit.std_errors *= ratio.sqrt();
+    fit.samples = samples;
+    Ok(fit)
+}
+
 /// The last column that takes part in the (near) null vector of `Ψ_s`: it is (nearly) a linear
 /// combination of the columns before it.
 fn collinear_column(v_t: &Option<DMatrix<f64>>, s: &DVector<f64>) -> usize {
@@ -271,6 +407,100 @@ mod tests {
         let err = (&fit.theta - &theta_true).amax();
         assert!(err < 1e-4, "QR error {err}");
         assert!(fit.condition_number > 1e6);
+    }
+
+    /// Least squares of the columns `subset` of `cols` against the target `-Σ w_j col_j` over
+    /// the other columns, through the factor, on the rows `rows`.
+    fn through_factor(
+        cols: &[Vec<f64>],
+        rows: &[usize],
+        subset: &[usize],
+        w: &[f64],
+    ) -> Result<LsFit, IdentError> {
+        let refs: Vec<&[f64]> = cols.iter().map(|c| c.as_slice()).collect();
+        let f = ColumnFactor::new(&refs, rows);
+        let m = cols.len();
+        let mut b = DVector::zeros(m);
+        for (j, &wj) in w.iter().enumerate() {
+            if !subset.contains(&j) {
+                b.axpy(-wj, &f.rotated_column(j), 1.0);
+            }
+        }
+        let a = DMatrix::from_fn(m, subset.len(), |i, c| {
+            f.r[(i, subset[c])] * f.norms[subset[c]]
+        });
+        least_squares_rotated(&a, &b, rows.len(), &LsOptions::default())
+    }
+
+    #[test]
+    fn the_factor_gives_the_direct_solution_on_any_subset_of_its_columns() {
+        // Five columns, one badly scaled, over a row set that skips some rows (more rows than
+        // a block, and not a multiple of one): every subset solved through the factor is the
+        // direct QR solution on the same rows, estimate, residual and statistics.
+        let mut rng = TestRng::new(11);
+        let n = 1000;
+        let cols: Vec<Vec<f64>> = (0..5)
+            .map(|j| {
+                (0..n)
+                    .map(|_| rng.normal() * if j == 1 { 1e4 } else { 1.0 })
+                    .collect()
+            })
+            .collect();
+        let rows: Vec<usize> = (0..n).filter(|k| k % 7 != 3).collect();
+        let w = [0.5, -2e-4, 1.5, 3.0, -1.0];
+        for subset in [vec![0, 1, 2], vec![1, 3], vec![2], vec![0, 1, 2, 3]] {
+            let fit = through_factor(&cols, &rows, &subset, &w).expect("full rank");
+            let psi = DMatrix::from_fn(rows.len(), subset.len(), |i, c| cols[subset[c]][rows[i]]);
+            let y = DVector::from_fn(rows.len(), |i, _| {
+                -(0..5)
+                    .filter(|j| !subset.contains(j))
+                    .map(|j| w[j] * cols[j][rows[i]])
+                    .sum::<f64>()
+            });
+            let direct = least_squares(&psi, &y).expect("full rank");
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1e-12);
+            for c in 0..subset.len() {
+                assert!(close(fit.theta[c], direct.theta[c]), "{subset:?} θ[{c}]");
+                assert!(
+                    close(fit.std_errors[c], direct.std_errors[c]),
+                    "{subset:?} σ[{c}]"
+                );
+            }
+            assert!(close(fit.rss, direct.rss), "{subset:?} rss");
+            assert_eq!(fit.dof(), direct.dof());
+            let (a, b) = (
+                fit.confidence_intervals(0.95),
+                direct.confidence_intervals(0.95),
+            );
+            assert!(close(a[0].1 - a[0].0, b[0].1 - b[0].0));
+        }
+    }
+
+    #[test]
+    fn the_factor_names_the_collinear_column_of_a_subset() {
+        let mut rng = TestRng::new(5);
+        let n = 300;
+        let mut cols: Vec<Vec<f64>> = (0..4)
+            .map(|_| (0..n).map(|_| rng.normal()).collect())
+            .collect();
+        cols[2] = (0..n).map(|k| 2.0 * cols[0][k] - cols[1][k]).collect();
+        let rows: Vec<usize> = (0..n).collect();
+        // Columns 0, 1, 2 free (2 a combination of the others), 3 the target.
+        match through_factor(&cols, &rows, &[0, 1, 2], &[0.0, 0.0, 0.0, 1.0]) {
+            Err(IdentError::RankDeficient { column, rank, .. }) => {
+                assert_eq!(column, 2);
+                assert_eq!(rank, 2);
+            }
+            other => panic!("expected rank deficiency, got {other:?}"),
+        }
+        // Without the combination the same columns solve.
+        assert!(through_factor(&cols, &rows, &[0, 1], &[0.0, 0.0, 0.0, 1.0]).is_ok());
+        // A column that is zero on the rows taken is named too.
+        cols[1] = vec![0.0; n];
+        assert!(matches!(
+            through_factor(&cols, &rows, &[0, 1], &[0.0, 0.0, 0.0, 1.0]),
+            Err(IdentError::RankDeficient { column: 1, .. })
+        ));
     }
 
     #[test]

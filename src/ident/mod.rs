@@ -39,7 +39,9 @@ pub use direction::{
 };
 pub use dsfi::{Dsfi, DsfiConfig};
 pub use error::IdentError;
-pub use ls::{least_squares, least_squares_with, LsFit, LsOptions};
+pub use ls::{
+    least_squares, least_squares_rotated, least_squares_with, ColumnFactor, LsFit, LsOptions,
+};
 pub use metrics::{
     aic, aicc, autocorrelation, bic, billings_voon, correlation_bound_95, cross_correlation,
     fit_percent, ljung_box, nrmse, rmse, Correlation, NonlinearCorrelationTests,

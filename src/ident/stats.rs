@@ -9,6 +9,10 @@
 
 use super::error::IdentError;
 
+/// 95 % quantile of the χ² distribution with one degree of freedom: the likelihood-ratio
+/// threshold of one parameter at the 5 % level (profile intervals, "as good as the best").
+pub const CHI2_1_95: f64 = 3.841_458_820_694_124;
+
 const LANCZOS_G: f64 = 7.0;
 const LANCZOS: [f64; 9] = [
     0.999_999_999_999_809_9,
@@ -476,6 +480,7 @@ mod tests {
         ));
         // χ²(1) 95 % point 3.841459; χ²(4) at 9.487729 is 0.95.
         assert!(close(chi_squared_sf(3.841_458_820_694, 1.0), 0.05, 1e-10));
+        assert!(close(chi_squared_sf(CHI2_1_95, 1.0), 0.05, 1e-12));
         assert!(close(chi_squared_cdf(9.487_729_036_781, 4.0), 0.95, 1e-10));
         assert!(close(normal_cdf(1.959_963_984_540), 0.975, 1e-12));
         assert!(close(normal_cdf(-1.0), 0.158_655_253_931_457, 1e-12));

@@ -12,7 +12,7 @@ use serde::Serialize;
 use super::data::Dataset;
 use super::effects::{self, Evidence};
 use super::model::Model;
-use super::regress::{balance, fit_spec, representable, IdFit};
+use super::regress::{balance, fit_spec, fit_spec_on, representable, IdFit};
 use super::signals::Prepared;
 use crate::ident::f_test_nested;
 use crate::physics::{EffectKind, PlantSpec};
@@ -167,15 +167,25 @@ pub fn diagnose(
         }
     }
     let total = kinds.len();
+    // Candidates with more grid searches take longer: started first, so that the workers finish
+    // together (the results go back to the catalogue's order below).
+    let searches = |k: EffectKind| -> usize {
+        let mut s = base_spec.clone();
+        if s.add_effect(k).is_err() {
+            return 0;
+        }
+        super::regress::grid_for(&s, k, d, data).map_or(0, |g| g.len())
+    };
+    let mut order: Vec<usize> = (0..kinds.len()).collect();
+    order.sort_by_key(|&i| std::cmp::Reverse(searches(kinds[i])));
     let done = std::sync::atomic::AtomicUsize::new(0);
     let next = std::sync::atomic::AtomicUsize::new(0);
     let results = std::sync::Mutex::new(Vec::new());
     let work = || -> anyhow::Result<()> {
         loop {
-            let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-            if i >= kinds.len() {
+            let Some(&i) = order.get(next.fetch_add(1, std::sync::atomic::Ordering::SeqCst)) else {
                 return Ok(());
-            }
+            };
             let kind = kinds[i];
             let c = candidate(
                 kind,
@@ -281,7 +291,11 @@ fn candidate(
 ) -> anyhow::Result<Candidate> {
     let mut spec = base_spec.clone();
     spec.add_effect(kind)?;
-    let (mut fitted, mut fit) = fit_spec(&spec, data, d, None)?;
+    // On all samples and on the training part at once: the grid points are shared.
+    let mut fits = fit_spec_on(&spec, data, d, &[None, Some(train)])?.into_iter();
+    let (Some((mut fitted, mut fit)), Some((mut trained, _))) = (fits.next(), fits.next()) else {
+        anyhow::bail!("{}: no fit for '{}'", data.origin, kind.name());
+    };
     // A lag in the drive and a missing damping trade against each other, so the base's lag may
     // be far from the candidate's: the lag is profiled over a coarse grid with the candidate's
     // nonlinear parameters kept as found and the linear ones refitted (one regression per point;
@@ -303,11 +317,12 @@ fn candidate(
             let (f_spec, f) = fit_spec(&s, data, d, None)?;
             if f.rss < fit.rss {
                 (fitted, fit) = (f_spec, f);
+                trained = fit_spec(&s, data, d, Some(train))?.0;
                 spec = s;
             }
         }
     }
-    let held = holdout_rss(&spec, data, d, train, test)?;
+    let held = balance(&trained, data, d)?.evaluate_on(test).rss;
     let k_b = base.parameters;
     let k_c = fit.parameters.max(k_b + 1);
     let p_value = f_test_nested(

@@ -20,6 +20,7 @@ use super::regress::{
     balance, fit_spec, COIL_TIME_CONSTANT, PNEUMATIC_COMPLIANCE, PNEUMATIC_COUPLING,
 };
 use super::signals::Prepared;
+use crate::ident::stats::CHI2_1_95;
 use crate::physics::{Family, PlantSpec};
 
 /// One drive constant as the data determine it.
@@ -107,7 +108,7 @@ fn coil(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<Vec<Dri
     let rss0 = rss_at(t0)?.min(fit.rss);
     // 95 % profile interval: RSS(T_I) ≤ RSS_min (1 + χ²₁(0.95) / N_eff).
     let n_eff = (fit.weighted_samples * d.n_eff_per_sample).max(10.0);
-    let limit = rss0 * (1.0 + 3.84 / n_eff);
+    let limit = rss0 * (1.0 + CHI2_1_95 / n_eff);
     let edge = |dir: f64| -> anyhow::Result<f64> {
         let (mut inside, mut step) = (t0, 0.02);
         for _ in 0..60 {

@@ -25,13 +25,16 @@
 //! `motor_gear` has its own drive side ([`super::regress_gear`]): the torque the gear transmits
 //! to the load, from the measured load angle and the drive signal.
 
+use std::rc::Rc;
+
 use nalgebra::{DMatrix, DVector};
 
 use super::data::Dataset;
 use super::effects::{self, direction_asymmetry, hysteresis, position_stiffness, supply_gain, Cx};
 use super::params::Handle;
-use super::signals::{abs_quantile, zero_phase, Prepared};
-use crate::ident::least_squares;
+use super::signals::{zero_phase, Prepared};
+use crate::ident::stats::CHI2_1_95;
+use crate::ident::{least_squares_rotated, ColumnFactor, LsOptions};
 use crate::physics::{CommandUnit, EffectKind, Family, PlantSpec};
 
 /// One term of the balance of forces.
@@ -296,45 +299,13 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
         terms,
         index,
         nonlinear,
-        standstill: standstill_samples(d),
+        standstill: d.standstill.clone(),
         breakaway,
         breakaway_free,
         breakaway_names: rest.map(|b| (b.pos.name, b.neg.name)),
         rest_filter: (0.25 * d.cutoff_hz, d.dt),
         dry_scale,
     })
-}
-
-/// Largest acceleration at rest, as a fraction of the 95 % quantile of `|a|`.
-const REST_ACCELERATION: f64 = 0.05;
-
-/// Samples at rest (slow and hardly accelerating) between the filter edges, except at the extreme positions of the record
-/// (within 0.5 % of the range), where an end stop may be what holds the body.
-pub fn standstill_samples(d: &Prepared) -> Vec<usize> {
-    let (Some(first), Some(last)) = (
-        d.valid.iter().position(|v| *v),
-        d.valid.iter().rposition(|v| *v),
-    ) else {
-        return Vec::new();
-    };
-    let (lo, hi) = d.y[first..=last]
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &y| {
-            (a.min(y), b.max(y))
-        });
-    let margin = 0.005 * (hi - lo);
-    // At rest the acceleration is small too: a reversal passes zero speed at full acceleration,
-    // with its equation error, and holds nothing.
-    let a_rest = REST_ACCELERATION * abs_quantile(&d.a[first..=last], 0.95);
-    (first..=last)
-        .filter(|&k| {
-            d.interior[k]
-                && !d.valid[k]
-                && d.a[k].abs() <= a_rest
-                && d.y[k] > lo + margin
-                && d.y[k] < hi - margin
-        })
-        .collect()
 }
 
 /// Inertia and drive terms of the families built on one rigid body.
@@ -611,14 +582,17 @@ impl Balance {
     /// inside it.
     fn friction_demanded(&self, values: &[f64]) -> Vec<f64> {
         let n = self.terms.first().map_or(0, |t| t.col.len());
-        let mut f = vec![0.0; n];
-        for (t, v) in self.terms.iter().zip(values) {
-            if t.dry.is_none() {
-                for (fk, c) in f.iter_mut().zip(&t.col) {
-                    *fk -= v * c;
-                }
-            }
-        }
+        let wet: Vec<(&[f64], f64)> = self
+            .terms
+            .iter()
+            .zip(values)
+            .filter(|(t, _)| t.dry.is_none())
+            .map(|(t, &v)| (t.col.as_slice(), v))
+            .collect();
+        // Sample by sample, the terms in their order: one pass over the record.
+        let f: Vec<f64> = (0..n)
+            .map(|k| wet.iter().fold(0.0, |fk, (c, v)| fk - v * c[k]))
+            .collect();
         let (corner, dt) = self.rest_filter;
         zero_phase(&f, corner, dt)
     }
@@ -682,16 +656,14 @@ impl Balance {
         let mut target = vec![0.0; index.len()];
         let mut pred = vec![0.0; index.len()];
         for (j, t) in self.terms.iter().enumerate() {
-            let (acc, sign) = if free[j] {
-                (&mut pred, 1.0)
+            let v = values[j];
+            if free[j] {
+                for (a, &k) in pred.iter_mut().zip(index) {
+                    *a += v * t.col[k];
+                }
             } else {
-                (&mut target, -1.0)
-            };
-            for (a, &k) in acc.iter_mut().zip(index) {
-                if sign > 0.0 {
-                    *a += values[j] * t.col[k];
-                } else {
-                    *a -= values[j] * t.col[k];
+                for (a, &k) in target.iter_mut().zip(index) {
+                    *a -= v * t.col[k];
                 }
             }
         }
@@ -764,47 +736,13 @@ impl Balance {
         let index = index.unwrap_or(&self.index);
         let values: Vec<f64> = self.terms.iter().map(|t| t.value).collect();
         let free: Vec<bool> = self.terms.iter().map(|t| t.free).collect();
-        self.fit_from(values, free, index, extra, n_eff_per_sample, true)
-    }
-
-    /// The free columns `cols` that take part in a collinearity on the samples `index`: those
-    /// with a share in a null direction of the column-equilibrated regressor (eigenvectors of its
-    /// Gram matrix with an eigenvalue below 1e-8 of the largest, singular values below 1e-4).
-    /// Fixing any other column leaves the collinearity in place, so only these are worth trying.
-    fn collinear(&self, cols: &[usize], index: &[usize]) -> Vec<usize> {
-        let m = cols.len();
-        let picked: Vec<Vec<f64>> = cols
-            .iter()
-            .map(|&j| {
-                let c = &self.terms[j].col;
-                let v: Vec<f64> = index.iter().map(|&k| c[k]).collect();
-                let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-                let norm = if norm > 0.0 { norm } else { 1.0 };
-                v.into_iter().map(|x| x / norm).collect()
-            })
-            .collect();
-        let gram = DMatrix::from_fn(m, m, |a, b| {
-            picked[a].iter().zip(&picked[b]).map(|(x, y)| x * y).sum()
-        });
-        let eig = nalgebra::SymmetricEigen::new(gram);
-        let top = eig.eigenvalues.amax();
-        let mut involved = Vec::new();
-        for (i, &l) in eig.eigenvalues.iter().enumerate() {
-            if l <= 1e-8 * top || i == eig.eigenvalues.imin() {
-                let v = eig.eigenvectors.column(i);
-                let largest: f64 = v.amax();
-                for (c, &j) in cols.iter().enumerate() {
-                    if v[c].abs() > 1e-3 * largest && !involved.contains(&j) {
-                        involved.push(j);
-                    }
-                }
-            }
-        }
-        involved
+        self.fit_from(values, free, index, extra, n_eff_per_sample, true, None)
     }
 
     /// [`Balance::fit`] from the given coefficients and freedom. `branch`: on collinear columns,
-    /// try each one fixed (see below) rather than only the one the solver names.
+    /// try each one fixed (see below) rather than only the one the solver names. `factor`: the
+    /// triangular factor of all the balance's columns on `index`, when already taken.
+    #[allow(clippy::too_many_arguments)]
     fn fit_from(
         &self,
         mut values: Vec<f64>,
@@ -813,31 +751,37 @@ impl Balance {
         extra: usize,
         n_eff_per_sample: f64,
         branch: bool,
+        factor: Option<&ColumnFactor>,
     ) -> IdFit {
         let mut intervals = vec![None; self.terms.len()];
+        // Every column, free or fixed, factored once: the target is a combination of the fixed
+        // ones, so each pass below (a coefficient pinned at a bound, a collinear column fixed)
+        // is a problem of the size of the balance, not of the record.
+        let taken;
+        let factor = match factor {
+            Some(f) => f,
+            None => {
+                let cols: Vec<&[f64]> = self.terms.iter().map(|t| t.col.as_slice()).collect();
+                taken = ColumnFactor::new(&cols, index);
+                &taken
+            }
+        };
+        let m = self.terms.len();
         for _ in 0..self.terms.len() + 1 {
             let cols: Vec<usize> = (0..self.terms.len()).filter(|&j| free[j]).collect();
-            if cols.is_empty() || index.len() <= cols.len() + 1 {
+            if cols.is_empty() || index.len() <= cols.len() + 1 || cols.len() >= m {
                 break;
             }
-            // Column by column (the matrix is stored so): the same sums in the same order as
-            // row by row, at a fraction of the cache misses.
-            let mut psi = DMatrix::<f64>::zeros(index.len(), cols.len());
-            let mut y = DVector::<f64>::zeros(index.len());
-            for (j, term) in self.terms.iter().enumerate() {
-                if !free[j] {
-                    for (t, &k) in y.iter_mut().zip(index) {
-                        *t -= values[j] * term.col[k];
-                    }
+            let mut b = DVector::<f64>::zeros(m);
+            for (j, &is_free) in free.iter().enumerate() {
+                if !is_free {
+                    b.axpy(-values[j], &factor.rotated_column(j), 1.0);
                 }
             }
-            for (c, &j) in cols.iter().enumerate() {
-                let col = &self.terms[j].col;
-                for (x, &k) in psi.column_mut(c).iter_mut().zip(index) {
-                    *x = col[k];
-                }
-            }
-            match least_squares(&psi, &y) {
+            let a = DMatrix::from_fn(m, cols.len(), |i, c| {
+                factor.r[(i, cols[c])] * factor.norms[cols[c]]
+            });
+            match least_squares_rotated(&a, &b, index.len(), &LsOptions::default()) {
                 Ok(ls) => {
                     let widen = (1.0 / n_eff_per_sample.clamp(1e-6, 1.0)).sqrt();
                     let ci = ls.confidence_intervals(0.95);
@@ -866,7 +810,7 @@ impl Balance {
                     // bites on the others, and it changes the friction band at rest: take the
                     // choice whose whole fit (bounds, rest included) leaves the least residual.
                     let named = cols[column];
-                    let involved = self.collinear(&cols, index);
+                    let involved = collinear(factor, &cols);
                     let mut best: Option<IdFit> = None;
                     for j in std::iter::once(named).chain(
                         cols.iter()
@@ -882,6 +826,7 @@ impl Balance {
                             extra,
                             n_eff_per_sample,
                             false,
+                            Some(factor),
                         );
                         if best.as_ref().is_none_or(|b| fit.rss < b.rss * (1.0 - 1e-9)) {
                             best = Some(fit);
@@ -905,6 +850,32 @@ impl Balance {
         };
         self.finish(values, free, intervals, extra, index, breakaway)
     }
+}
+
+/// The free columns `cols` that take part in a collinearity: those with a share in a null
+/// direction of the column-equilibrated regressor (eigenvectors of its Gram matrix `R_Sᵀ R_S`
+/// with an eigenvalue below 1e-8 of the largest, singular values below 1e-4). Fixing any other
+/// column leaves the collinearity in place, so only these are worth trying.
+fn collinear(factor: &ColumnFactor, cols: &[usize]) -> Vec<usize> {
+    let m = cols.len();
+    let gram = DMatrix::from_fn(m, m, |a, b| {
+        factor.r.column(cols[a]).dot(&factor.r.column(cols[b]))
+    });
+    let eig = nalgebra::SymmetricEigen::new(gram);
+    let top = eig.eigenvalues.amax();
+    let mut involved = Vec::new();
+    for (i, &l) in eig.eigenvalues.iter().enumerate() {
+        if l <= 1e-8 * top || i == eig.eigenvalues.imin() {
+            let v = eig.eigenvectors.column(i);
+            let largest: f64 = v.amax();
+            for (c, &j) in cols.iter().enumerate() {
+                if v[c].abs() > 1e-3 * largest && !involved.contains(&j) {
+                    involved.push(j);
+                }
+            }
+        }
+    }
+    involved
 }
 
 /// Steps of the refinement between the neighbours of the best grid point.
@@ -969,6 +940,28 @@ pub fn fit_spec(
     d: &Prepared,
     index: Option<&[usize]>,
 ) -> anyhow::Result<(PlantSpec, IdFit)> {
+    let mut fits = fit_spec_on(spec, raw, d, &[index])?;
+    fits.pop()
+        .ok_or_else(|| anyhow::anyhow!("{}: no fit", raw.origin))
+}
+
+/// One search's residual at a grid point and the balance built there (none where the point is
+/// not admissible).
+type Scored = Option<(f64, Rc<Balance>)>;
+
+/// The best point of one grid search so far: residual, value, and the balance built there.
+type Best = Option<(f64, f64, Rc<Balance>)>;
+
+/// [`fit_spec`] from the same start on several sets of samples at once (all of them and a
+/// training part): one fit per set, as [`fit_spec`] gives it. A grid point is one balance of
+/// forces however many searches score it, as long as their choices so far agree: building the
+/// balance is half the cost of a point.
+pub fn fit_spec_on(
+    spec: &PlantSpec,
+    raw: &Dataset,
+    d: &Prepared,
+    indices: &[Option<&[usize]>],
+) -> anyhow::Result<Vec<(PlantSpec, IdFit)>> {
     let mut spec = spec.clone();
     let mut extra = 0;
     let is_free =
@@ -983,60 +976,139 @@ pub fn fit_spec(
     for e in present {
         e.start(&mut spec, raw)?;
     }
+    let searches = indices.len();
+    let mut specs = vec![spec; searches];
+    // The balance at each search's chosen point, kept for the final fit.
+    let mut kept: Vec<Option<(PlantSpec, Rc<Balance>)>> = vec![None; searches];
     for (name, grid) in grids {
         extra += 1;
-        // Each point's residual sum of squares and its effective number of samples.
-        let mut scored: Vec<(f64, f64, f64)> = Vec::new();
-        let mut score = |g: f64| -> anyhow::Result<Option<f64>> {
-            let mut s = spec.clone();
-            if set_nonlinear(&mut s, &name, g).is_err() {
-                return Ok(None);
-            }
-            let fit = balance(&s, raw, d)?.fit(index, 0, d.n_eff_per_sample);
-            scored.push((g, fit.rss, fit.weighted_samples * d.n_eff_per_sample));
-            Ok(Some(fit.rss))
-        };
-        let mut best: Option<(f64, f64)> = None;
-        let mut at = 0;
-        for (i, &g) in grid.iter().enumerate() {
-            if let Some(rss) = score(g)? {
-                if best.is_none_or(|(r, _)| rss < r) {
-                    best = Some((rss, g));
-                    at = i;
-                }
-            }
-        }
-        // Refine between the neighbours of the best grid point.
-        if let Some((_, g0)) = best {
-            let lo = if at > 0 { grid[at - 1] } else { g0 };
-            let hi = grid.get(at + 1).copied().unwrap_or(g0);
-            for i in 1..REFINE {
-                let g = lo + (hi - lo) * i as f64 / REFINE as f64;
-                if g == g0 {
+        // Each point's residual sum of squares and its effective number of samples, per search.
+        let mut scored: Vec<Vec<(f64, f64, f64)>> = vec![Vec::new(); searches];
+        let mut best: Vec<Best> = vec![None; searches];
+        let mut at = vec![0; searches];
+        // Score the searches `which` at `g`, sharing the balance between equal specs.
+        let mut score = |which: &[usize], g: f64| -> anyhow::Result<Vec<Scored>> {
+            let mut built: Vec<(PlantSpec, Rc<Balance>)> = Vec::new();
+            let mut out = Vec::with_capacity(which.len());
+            for &i in which {
+                let mut s = specs[i].clone();
+                if set_nonlinear(&mut s, &name, g).is_err() {
+                    out.push(None);
                     continue;
                 }
-                if let Some(rss) = score(g)? {
-                    if best.is_none_or(|(r, _)| rss < r) {
-                        best = Some((rss, g));
+                let bal = match built.iter().find(|(t, _)| *t == s) {
+                    Some((_, b)) => Rc::clone(b),
+                    None => {
+                        let b = Rc::new(balance(&s, raw, d)?);
+                        built.push((s, Rc::clone(&b)));
+                        b
+                    }
+                };
+                let fit = bal.fit(indices[i], 0, d.n_eff_per_sample);
+                scored[i].push((g, fit.rss, fit.weighted_samples * d.n_eff_per_sample));
+                out.push(Some((fit.rss, bal)));
+            }
+            Ok(out)
+        };
+        let all: Vec<usize> = (0..searches).collect();
+        for (k, &g) in grid.iter().enumerate() {
+            for (&i, r) in all.iter().zip(score(&all, g)?) {
+                if let Some((rss, bal)) = r {
+                    if best[i].as_ref().is_none_or(|(r, _, _)| rss < *r) {
+                        best[i] = Some((rss, g, bal));
+                        at[i] = k;
                     }
                 }
             }
         }
-        if name.starts_with("backlash.gap") {
-            best = best.map(|b| smallest_play_as_good(&scored, b));
+        // Refine between the neighbours of the best grid point; searches that chose the same
+        // point refine at the same values.
+        let mut points: Vec<(usize, f64)> = Vec::new();
+        for i in 0..searches {
+            if let Some((_, g0, _)) = best[i] {
+                let lo = if at[i] > 0 { grid[at[i] - 1] } else { g0 };
+                let hi = grid.get(at[i] + 1).copied().unwrap_or(g0);
+                for r in 1..REFINE {
+                    let g = lo + (hi - lo) * r as f64 / REFINE as f64;
+                    if g != g0 {
+                        points.push((i, g));
+                    }
+                }
+            }
         }
-        if let Some((_, g)) = best {
-            set_nonlinear(&mut spec, &name, g)?;
+        let mut next = vec![0; searches];
+        let per: Vec<Vec<f64>> = (0..searches)
+            .map(|i| {
+                points
+                    .iter()
+                    .filter(|(j, _)| *j == i)
+                    .map(|(_, g)| *g)
+                    .collect()
+            })
+            .collect();
+        while (0..searches).any(|i| next[i] < per[i].len()) {
+            // The next point of every search still refining, equal values scored together; each
+            // search takes its points in its own order, as it would on its own.
+            let mut round: Vec<(usize, f64)> = (0..searches)
+                .filter(|&i| next[i] < per[i].len())
+                .map(|i| (i, per[i][next[i]]))
+                .collect();
+            for (i, _) in &round {
+                next[*i] += 1;
+            }
+            round.sort_by(|a, b| a.1.total_cmp(&b.1));
+            let mut k = 0;
+            while k < round.len() {
+                let g = round[k].1;
+                let which: Vec<usize> = round[k..]
+                    .iter()
+                    .take_while(|(_, h)| h.to_bits() == g.to_bits())
+                    .map(|(i, _)| *i)
+                    .collect();
+                k += which.len();
+                for (&i, res) in which.iter().zip(score(&which, g)?) {
+                    if let Some((rss, bal)) = res {
+                        if best[i].as_ref().is_none_or(|(r, _, _)| rss < *r) {
+                            best[i] = Some((rss, g, bal));
+                        }
+                    }
+                }
+            }
+        }
+        for i in 0..searches {
+            let Some((r, g, bal)) = best[i].take() else {
+                continue;
+            };
+            // The play kept may be smaller than the best point's: its balance is built again.
+            let chosen = if name.starts_with("backlash.gap") {
+                smallest_play_as_good(&scored[i], (r, g)).1
+            } else {
+                g
+            };
+            set_nonlinear(&mut specs[i], &name, chosen)?;
+            kept[i] = (chosen.to_bits() == g.to_bits()).then(|| (specs[i].clone(), bal));
         }
     }
-    let bal = balance(&spec, raw, d)?;
-    let fit = bal.fit(index, extra, d.n_eff_per_sample);
-    apply_fit(&mut spec, &bal, &fit)?;
-    Ok((spec, fit))
+    let mut out = Vec::with_capacity(searches);
+    let mut built: Vec<(PlantSpec, Rc<Balance>)> = Vec::new();
+    for (i, mut spec) in specs.into_iter().enumerate() {
+        // The balance of the chosen point is the balance of the spec as it ends (a play other
+        // than the best point's is built again).
+        let bal = match (kept[i].take(), built.iter().find(|(t, _)| *t == spec)) {
+            (Some((s, b)), _) if s == spec => b,
+            (_, Some((_, b))) => Rc::clone(b),
+            _ => {
+                let b = Rc::new(balance(&spec, raw, d)?);
+                built.push((spec.clone(), Rc::clone(&b)));
+                b
+            }
+        };
+        let fit = bal.fit(indices[i], extra, d.n_eff_per_sample);
+        apply_fit(&mut spec, &bal, &fit)?;
+        out.push((spec, fit));
+    }
+    Ok(out)
 }
-
-/// 95 % quantile of the χ² distribution with one degree of freedom.
-const CHI2_1_95: f64 = 3.841;
 
 /// The smallest play of the grid that the record cannot tell from the best one: a play shows
 /// only where the transmitted torque reverses, and where the load is held there (a closed loop

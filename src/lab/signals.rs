@@ -31,6 +31,8 @@ pub struct Prepared {
     pub valid: Vec<bool>,
     /// First sample of each continuous stretch (0 first; more after gaps in the time).
     pub segment_starts: Vec<usize>,
+    /// Samples at rest where the model's friction must hold the body ([`standstill_samples`]).
+    pub standstill: Vec<usize>,
     /// Number of statistically independent samples, `N_eff = 2 f_c N T_0` (the residual of a
     /// band-limited regression is correlated over about `1/(2 f_c)`), at most `N`.
     pub n_eff_per_sample: f64,
@@ -139,7 +141,7 @@ pub fn prepare(d: &Dataset, cutoff_hz: Option<f64>) -> Prepared {
         .zip(&interior)
         .map(|(vk, inside)| *inside && vk.abs() > v_standstill)
         .collect();
-    Prepared {
+    let mut p = Prepared {
         dt,
         cutoff_hz: fc,
         y,
@@ -152,8 +154,44 @@ pub fn prepare(d: &Dataset, cutoff_hz: Option<f64>) -> Prepared {
         interior,
         valid,
         segment_starts: segments.iter().map(|r| r.start).collect(),
+        standstill: Vec::new(),
         n_eff_per_sample: (2.0 * fc * dt).min(1.0),
-    }
+    };
+    // Once per record: every balance of every candidate checks the same samples.
+    p.standstill = standstill_samples(&p);
+    p
+}
+
+/// Largest acceleration at rest, as a fraction of the 95 % quantile of `|a|`.
+const REST_ACCELERATION: f64 = 0.05;
+
+/// Samples at rest (slow and hardly accelerating) between the filter edges, except at the extreme positions of the record
+/// (within 0.5 % of the range), where an end stop may be what holds the body.
+pub fn standstill_samples(d: &Prepared) -> Vec<usize> {
+    let (Some(first), Some(last)) = (
+        d.valid.iter().position(|v| *v),
+        d.valid.iter().rposition(|v| *v),
+    ) else {
+        return Vec::new();
+    };
+    let (lo, hi) = d.y[first..=last]
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &y| {
+            (a.min(y), b.max(y))
+        });
+    let margin = 0.005 * (hi - lo);
+    // At rest the acceleration is small too: a reversal passes zero speed at full acceleration,
+    // with its equation error, and holds nothing.
+    let a_rest = REST_ACCELERATION * abs_quantile(&d.a[first..=last], 0.95);
+    (first..=last)
+        .filter(|&k| {
+            d.interior[k]
+                && !d.valid[k]
+                && d.a[k].abs() <= a_rest
+                && d.y[k] > lo + margin
+                && d.y[k] < hi - margin
+        })
+        .collect()
 }
 
 /// Filtered signals of one continuous stretch.
