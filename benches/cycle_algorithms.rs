@@ -117,6 +117,7 @@ fn parameter_estimator() -> ParameterEstimator {
         nominal_current_time_constant_s: 0.00859,
         moving_speed_m_per_s: 1e-3,
         min_moving_samples: 8,
+        disturbed_moving_samples: 8,
     })
     .expect("valid estimator")
 }

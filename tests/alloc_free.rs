@@ -231,6 +231,7 @@ fn supervision_algorithms_do_not_allocate() {
         nominal_current_time_constant_s: 0.00859,
         moving_speed_m_per_s: 1e-3,
         min_moving_samples: 8,
+        disturbed_moving_samples: 8,
     })
     .expect("ok");
     let mut sup = EstimatorSupervisor::new(&EstimatorSupervisorConfig {

@@ -69,6 +69,34 @@ fn the_demo_tells_its_story_in_lockstep_from_any_directory() {
     for st in s.steps.iter().filter(|st| st.at_s < FAULT_AT_S) {
         assert!(st.faults.is_empty(), "{st:?}");
     }
+    // The steady error right after the rise and once the compensation has adapted (the last
+    // steps before the dip) are measured and printed as this run has them.
+    assert!(
+        p.friction_error_before_m > 0.0 && p.friction_error_after_m > 0.0,
+        "{p:?}"
+    );
+    let friction_line = format!(
+        "steady error {:.1} µm on the first step, {:.1} µm on the last two before the dip",
+        p.friction_error_before_m * 1e6,
+        p.friction_error_after_m * 1e6
+    );
+    assert!(text.contains(&friction_line), "{friction_line}\n{text}");
+    // The adaptive compensation (with the arrival relief it learns beside it) brings the steady
+    // error back to within 1.5x of the nominal steps' (a sensor quantum allowed), from the
+    // larger error right after the rise.
+    let quantum = 1e-6;
+    assert!(
+        p.friction_error_after_m <= 1.5 * p.nominal_small_error_m + quantum,
+        "adapted {} vs nominal {}",
+        p.friction_error_after_m,
+        p.nominal_small_error_m
+    );
+    assert!(
+        p.friction_error_after_m < p.friction_error_before_m,
+        "adapted {} vs right after the rise {}",
+        p.friction_error_after_m,
+        p.friction_error_before_m
+    );
 
     // 3. The dip: 16.8 V measured (24 V x 0.7), gains x24/16.8, the warning EMCY (mains
     // under-voltage) once, no safe state; the small steps settle as before the dip.
@@ -86,7 +114,6 @@ fn the_demo_tells_its_story_in_lockstep_from_any_directory() {
     assert_eq!(code, 0x3120);
     assert!(after < 0.05, "{after}");
     assert!(!p.dip_safe_state);
-    let quantum = 1e-6;
     assert!(
         p.dip_error_m <= 1.25 * p.pre_dip_error_m + quantum,
         "{} vs {}",

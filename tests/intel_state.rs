@@ -83,8 +83,8 @@ fn sdo_write(rig: &mut LockStep, name: &str, value: f64) {
 fn what_the_axis_learned_is_in_the_dictionary_and_survives_a_parameter_write() {
     let c = config("");
     let mut rig = rig(&c);
-    rig.run(40.0, &mut |_| {});
-    // Cycle 16000 publishes (every status period): the dictionary then shows this cycle's values.
+    rig.run(55.0, &mut |_| {});
+    // Cycle 22000 publishes (every status period): the dictionary then shows this cycle's values.
     rig.cycle();
     let node = rig.controller();
     let learned = node.axes()[0].learned();
@@ -92,7 +92,7 @@ fn what_the_axis_learned_is_in_the_dictionary_and_survives_a_parameter_write() {
     let (pos, neg) = learned.friction_compensation.expect("adaptive friction");
     assert_eq!(real(od, "friction_compensation_pos"), pos);
     assert_eq!(real(od, "friction_compensation_neg"), neg);
-    let nominal = learned.nominal.expect("nominal learned in 40 s");
+    let nominal = learned.nominal.expect("nominal learned in 55 s");
     assert_eq!(
         real(od, "nominal_natural_frequency_rad_per_s"),
         nominal.p.values[2]
@@ -104,7 +104,7 @@ fn what_the_axis_learned_is_in_the_dictionary_and_survives_a_parameter_write() {
     assert!(real(od, "estimate_natural_frequency_rad_per_s").is_finite());
     let bands = learned
         .observer_bands
-        .expect("observer bands learned in 40 s");
+        .expect("observer bands learned in 55 s");
     assert_eq!(real(od, "observer_x4_pos_low_m"), bands[0].0);
     assert_eq!(real(od, "observer_x4_neg_high_m"), bands[1].1);
     let cells = unsigned(od, "learned_table_cells");
@@ -149,14 +149,14 @@ fn what_the_axis_learned_is_in_the_dictionary_and_survives_a_parameter_write() {
 fn a_reload_keeps_what_was_learned_and_the_state_file_carries_it_to_a_new_daemon() {
     let c = config("");
     let mut rig = rig(&c);
-    rig.run(40.0, &mut |_| {});
+    rig.run(55.0, &mut |_| {});
     let learned = rig.controller().axes()[0].learned();
     assert!(learned.nominal.is_some() && learned.observer_bands.is_some());
 
     // SIGHUP with a changed limit: the axis is rebuilt, nothing learned is lost.
     let mut changed = c.clone();
     changed.axis[0].limits.following_error_m = Some(0.004);
-    rig.controller_mut().reload(changed, 40.0, &mut |_| {});
+    rig.controller_mut().reload(changed, 55.0, &mut |_| {});
     assert_eq!(rig.controller().axes()[0].learned(), learned);
 
     // The file written at shutdown gives a fresh daemon the same start.

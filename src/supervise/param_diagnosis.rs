@@ -358,6 +358,11 @@ pub struct ParameterEstimatorConfig {
     /// (stiction) breaks the model, so those samples are left out, as the paper selects samples
     /// of non-zero velocity.
     pub min_moving_samples: u32,
+    /// The same after a disturbed sample ([`ParameterEstimator::exclude_disturbed`]), at least
+    /// `min_moving_samples`: the standstill that follows a disturbance holds a force static
+    /// friction set far from the model's `±F_C`, and the filters carry it further into the next
+    /// move than an ordinary stop.
+    pub disturbed_moving_samples: u32,
 }
 
 /// Scale of the regression: positions in mm, time in units of `1/Ω`.
@@ -378,6 +383,9 @@ pub struct ParameterEstimator {
     moving_run: u32,
     /// The next sample is disturbed: it does not count as moving.
     disturbed: bool,
+    /// Moving samples in a row the next regression needs: `min_moving_samples`, or
+    /// `disturbed_moving_samples` until they have come after a disturbance.
+    required_run: u32,
     updates: u64,
 }
 
@@ -426,6 +434,7 @@ impl ParameterEstimator {
             sign: 0.0,
             moving_run: 0,
             disturbed: false,
+            required_run: config.min_moving_samples,
             updates: 0,
         })
     }
@@ -440,6 +449,7 @@ impl ParameterEstimator {
         self.sign = 0.0;
         self.moving_run = 0;
         self.disturbed = false;
+        self.required_run = self.config.min_moving_samples;
         self.updates = 0;
     }
 
@@ -450,10 +460,11 @@ impl ParameterEstimator {
 
     /// This sample is disturbed by a command step the loop put in on its own (the arrival
     /// relief of the controller's integral) and by what follows it until the next set-point:
-    /// leave it out, and the moving samples after it until `min_moving_samples` of them have
-    /// come in a row again (the filters' memory of the disturbed ones). The
-    /// relief moves the armature's stop and the creeping the integral then drives against
-    /// stiction, which the model has no term for: regressed, those samples move `C_F`.
+    /// leave it out, and the moving samples after it until `disturbed_moving_samples` of them
+    /// have come in a row again (the filters' memory of the disturbed ones). The relief moves
+    /// the armature's stop and the force static friction holds there, which the model has no
+    /// term for: regressed, those samples move `C_F`, and so do the first moves after the stop
+    /// while the filters still remember it.
     pub fn exclude_disturbed(&mut self) {
         self.disturbed = true;
     }
@@ -483,6 +494,7 @@ impl ParameterEstimator {
         if self.disturbed {
             self.moving_run = 0;
             self.disturbed = false;
+            self.required_run = c.disturbed_moving_samples.max(c.min_moving_samples);
         }
         self.y_prev = Some(position);
         let s_f = self.svf_sign.step(self.sign)[0];
@@ -494,9 +506,10 @@ impl ParameterEstimator {
             y[2] / (TIME_SCALE * TIME_SCALE),
             y[3] / TIME_SCALE.powi(3),
         );
-        if self.moving_run < c.min_moving_samples {
+        if self.moving_run < self.required_run {
             return;
         }
+        self.required_run = c.min_moving_samples;
         let psi = [-y2, -y1, -y0, u_f, 1.0, s_f];
         if self.estimator.step(&psi, y3).is_ok() {
             self.updates += 1;
@@ -869,6 +882,7 @@ mod tests {
             nominal_current_time_constant_s: 0.00859,
             moving_speed_m_per_s: 1e-3,
             min_moving_samples: 8,
+            disturbed_moving_samples: 8,
         })
         .expect("valid");
         for _ in 0..400 {
@@ -897,9 +911,14 @@ mod tests {
         }
     }
 
-    /// Updates of an estimator fed a steady 10 mm/s ramp with a square-wave command over 400
-    /// samples, told that the samples in `disturbed` are disturbed.
-    fn updates_with_disturbed(disturbed: std::ops::Range<u32>) -> u64 {
+    /// Updates of an estimator fed a 10 mm/s ramp (standing still in `standing`) with a
+    /// square-wave command over 400 samples, told that the samples in `disturbed` are disturbed,
+    /// with `disturbed_moving_samples` = `after`.
+    fn updates_with(
+        disturbed: std::ops::Range<u32>,
+        standing: std::ops::Range<u32>,
+        after: u32,
+    ) -> u64 {
         let mut est = ParameterEstimator::new(ParameterEstimatorConfig {
             period_s: 0.0025,
             filter_omega_rad_s: 150.0,
@@ -908,16 +927,25 @@ mod tests {
             nominal_current_time_constant_s: 0.00859,
             moving_speed_m_per_s: 1e-3,
             min_moving_samples: 8,
+            disturbed_moving_samples: after,
         })
         .expect("valid");
+        let mut y = 1e-3;
         for k in 0..400u32 {
             if disturbed.contains(&k) {
                 est.exclude_disturbed();
             }
+            if !standing.contains(&k) {
+                y += 2.5e-5;
+            }
             let u = if (k / 25) % 2 == 0 { 8.0 } else { 6.0 };
-            est.step(1e-3 + 2.5e-5 * f64::from(k), u);
+            est.step(y, u);
         }
         est.updates()
+    }
+
+    fn updates_with_disturbed(disturbed: std::ops::Range<u32>) -> u64 {
+        updates_with(disturbed, 0..0, 8)
     }
 
     #[test]
@@ -929,5 +957,19 @@ mod tests {
         assert_eq!(updates_with_disturbed(200..220), all - 20 - 7);
         // One disturbed sample costs the filters' memory too.
         assert_eq!(updates_with_disturbed(300..301), all - 1 - 7);
+    }
+
+    #[test]
+    fn after_a_disturbance_the_longer_memory_is_waited_for_once() {
+        // An ordinary stop of 10 samples costs itself and 7 more, whatever the disturbed memory.
+        let stop = updates_with(0..0, 300..310, 8);
+        assert_eq!(stop, 400 - 8 - 10 - 7);
+        assert_eq!(updates_with(0..0, 300..310, 16), stop);
+        // A disturbance waits for 16 moving samples in a row (15 after it); the stop that comes
+        // later costs what an ordinary one does.
+        assert_eq!(updates_with(200..201, 300..310, 16), stop - 1 - 15);
+        assert_eq!(updates_with(200..220, 0..0, 16), 400 - 8 - 20 - 15);
+        // Never less than the ordinary memory.
+        assert_eq!(updates_with(200..220, 0..0, 2), 400 - 8 - 20 - 7);
     }
 }

@@ -38,6 +38,12 @@ declare_section! {
         min_moving_samples: u32 = {
             unit: "", access: Restart, doc: "",
         },
+        /// The same after an arrival relief: the stop it leaves holds a force static friction
+        /// set, which the filters carry further into the next move (at least
+        /// `min_moving_samples`).
+        disturbed_moving_samples: u32 = {
+            unit: "", access: Restart, doc: "", default: 16,
+        },
         /// Regression updates per estimation window: at least ten for the six parameters.
         window_updates: u64 = {
             unit: "", min: 10.0, access: PreOperational,
@@ -110,6 +116,7 @@ impl ParameterEstimationSection {
             nominal_current_time_constant_s: self.current_time_constant_s,
             moving_speed_m_per_s: self.moving_speed_m_per_s,
             min_moving_samples: self.min_moving_samples,
+            disturbed_moving_samples: self.disturbed_moving_samples,
         }
     }
 }
