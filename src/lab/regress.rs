@@ -904,13 +904,19 @@ pub fn drive_grid(spec: &PlantSpec, d: &Prepared, raw: &Dataset) -> Vec<(String,
     if spec.family != Family::Solenoid || raw.current.is_some() {
         return Vec::new();
     }
-    let (lo, hi) = ((2.0 * d.dt).max(1e-4), 0.1f64);
+    let (lo, hi) = coil_bounds(d);
     vec![(
         COIL_TIME_CONSTANT.to_string(),
         (0..16)
             .map(|i| lo * (hi / lo).powf(i as f64 / 15.0))
             .collect(),
     )]
+}
+
+/// The range the coil's time constant is searched over: from two samples (a shorter lag is not
+/// seen at the record's rate) to 0.1 s.
+pub fn coil_bounds(d: &Prepared) -> (f64, f64) {
+    ((2.0 * d.dt).max(1e-4), 0.1)
 }
 
 /// The solenoid coil's time constant, the drive constant the data determine without a current.
