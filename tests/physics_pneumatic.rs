@@ -128,3 +128,50 @@ fn supply_fault_slows_it_down() {
     let p_l = P.atm - 0.5 * (P.atm - P.p_nom);
     assert!((p.truth().supply_pressure_pa - p_l).abs() < 1e-6);
 }
+
+#[test]
+fn each_valve_follows_its_own_supply_law() {
+    let mut s = spec();
+    s.remove_effect(EffectKind::Coulomb);
+    s.remove_effect(EffectKind::Stiction);
+    // The positive command's law flat over the supply (κ + Δκ = 0), the negative one's as before.
+    s.set("supply_gain.exponent_pos_shift", -P.kappa)
+        .expect("the shift is a parameter of supply_gain");
+    for p_l in [40_000.0, 80_000.0] {
+        for duty in [-0.5, 0.5] {
+            let mut p = s.build().expect("builds");
+            p.set_supply(p_l);
+            for _ in 0..3 {
+                p.step(duty, 0.01);
+            }
+            let v = if duty < 0.0 {
+                gain_at(p_l, P.gain_down) * duty
+            } else {
+                P.gain_up * duty
+            };
+            assert!(
+                (p.truth().velocity - v).abs() < 1e-4 * v.abs(),
+                "P_L {p_l} duty {duty}: v {} expected {v}",
+                p.truth().velocity
+            );
+        }
+    }
+}
+
+#[test]
+fn a_law_per_direction_is_refused_on_a_pwm_drive_naming_the_key() {
+    let mut s = PlantSpec::new(actuatord::physics::Family::LinearAxis);
+    s.add_effect(EffectKind::SupplyGain)
+        .expect("linear_axis takes supply_gain");
+    s.set("supply_gain.exponent_pos_shift", 0.5)
+        .expect("in range");
+    let err = s
+        .build_named("axis.toml")
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        err.contains("axis.toml") && err.contains("exponent_pos_shift"),
+        "{err}"
+    );
+}

@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 
-use super::effects::{EffectKind, Effects};
+use super::effects::{EffectDef, EffectKind, Effects, SupplyGain};
 use super::families::body::{BodyParams, BodyPlant};
 use super::families::{linear_axis, motor_gear, pneumatic, solenoid};
 use super::family::{CommandUnit, Family};
@@ -367,6 +367,24 @@ impl PlantSpec {
         }
         let b = self.values(&self.base, fam, origin)?;
         let fx = self.effects_struct(origin)?;
+        if let Some(sg) = fx.supply_gain {
+            // A PWM stage scales both directions of the command alike; only the pneumatic drive
+            // has two valves, each with its own law.
+            if sg.exponent_pos_shift != 0.0 && self.family != Family::Pneumatic {
+                let def = &<SupplyGain as EffectDef>::PARAMS[1];
+                return Err(PhysicsError::invalid(
+                    origin,
+                    <SupplyGain as EffectDef>::NAME,
+                    def.base,
+                    format!(
+                        "a law per direction is the pneumatic drive's (two valves); a {fam} \
+                         drive's gain follows the supply alike in both directions: leave it 0, \
+                         got {}",
+                        sg.exponent_pos_shift
+                    ),
+                ));
+            }
+        }
         let s = self.values(&self.sensor, "sensor", origin)?;
         let sensor = Sensor::new(SensorSpec::from_values(&s), self.seed);
         let faults = FaultSet::with_schedule(self.faults.clone());

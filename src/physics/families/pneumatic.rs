@@ -101,7 +101,8 @@ impl Drive for ValveDrive {
         } else {
             self.gain_up * d
         };
-        let k = sg.map_or(1.0, |s| s.factor(ratio));
+        // Each valve its own law over the supply: `K_I1(P_L)` evacuating, `K_I2(P_L)` venting.
+        let k = sg.map_or(1.0, |s| s.factor_for(ratio, d > 0.0));
         v * k * gain
     }
 
