@@ -1,6 +1,7 @@
 //! The lab's side of each physical effect, one file each beside `physics/effects/`: when the
 //! balance of forces can represent it, the columns it adds, the grid of its nonlinear parameters,
-//! how it shapes the command, and the signature the diagnosis looks for in a residual. The
+//! how it shapes the command, what it does to the drive, and the signature the diagnosis looks
+//! for in a residual. The
 //! regression ([`super::regress`]) and the diagnosis ([`super::diagnose`]) run over these
 //! descriptions.
 //!
@@ -8,12 +9,13 @@
 //! with a unit struct named like its physics type, implementing [`LabEffect`]. The modules and
 //! [`REGISTRY`] are made from the physics' catalogue (`physics::effects::catalogue!`), so the
 //! lab names no effect here; each side's [`LabEffect::place`] is the order of its columns and of
-//! its nonlinear parameters in a fit. An effect on the drive says so through its own hooks too:
-//! the drive's factor from the supply ([`LabEffect::supply_factor`]), its gain per direction or
-//! by position ([`LabEffect::direction_gain`], [`LabEffect::position_gain`]), the columns it adds
-//! to the drive force of the one-body families ([`LabEffect::drive_gain_terms`],
-//! [`LabEffect::drive_force_terms`]), what it changes in `motor_gear`'s gear
-//! ([`LabEffect::gear`]); the regression composes them and names no effect.
+//! its nonlinear parameters in a fit. An effect that changes the drive needs no place in
+//! `regress.rs` or `regress_gear.rs` either: its hooks give the drive's factor from the supply
+//! ([`LabEffect::supply_factor`]), its gain per direction or by position
+//! ([`LabEffect::direction_gain`], [`LabEffect::position_gain`]), the columns it adds to the
+//! drive force of the one-body families ([`LabEffect::drive_gain_terms`],
+//! [`LabEffect::drive_force_terms`]) and what it changes in `motor_gear`'s gear
+//! ([`LabEffect::gear`]); the regression composes them over the effects of the model.
 
 use super::data::Dataset;
 use super::params::Handle;
