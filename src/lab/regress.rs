@@ -30,7 +30,7 @@ use std::rc::Rc;
 use nalgebra::{DMatrix, DVector};
 
 use super::data::Dataset;
-use super::effects::{self, direction_asymmetry, hysteresis, position_stiffness, supply_gain, Cx};
+use super::effects::{self, Cx, DirectionGain, DriveForce, PositionGain, SupplyFactor};
 use super::params::Handle;
 use super::signals::{zero_phase, Prepared};
 use crate::ident::stats::CHI2_1_95;
@@ -308,6 +308,45 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
     })
 }
 
+/// What the effects of a model make of the drive of a one-body family: its factor from the
+/// supply, its gain per direction and its gain by position (each from the first effect that has
+/// one, in registry order).
+struct DriveEffects {
+    /// Factor of the drive at the supply ratio; `None`: the supply only limits the drive.
+    supply: Option<SupplyFactor>,
+    /// Gain per direction of motion.
+    direction: Option<DirectionGain>,
+    /// Gain by position.
+    position: Option<PositionGain>,
+}
+
+impl DriveEffects {
+    fn of(spec: &PlantSpec) -> anyhow::Result<DriveEffects> {
+        let mut out = DriveEffects {
+            supply: None,
+            direction: None,
+            position: None,
+        };
+        for e in effects::present(spec) {
+            if out.supply.is_none() {
+                out.supply = e.supply_factor(spec)?;
+            }
+            if out.direction.is_none() {
+                out.direction = e.direction_gain(spec)?;
+            }
+            if out.position.is_none() {
+                out.position = e.position_gain(spec)?;
+            }
+        }
+        Ok(out)
+    }
+
+    /// The drive's factor at the supply ratio `r` (1 when it does not follow the supply).
+    fn factor(&self, r: f64) -> f64 {
+        self.supply.as_ref().map_or(1.0, |f| f(r))
+    }
+}
+
 /// Inertia and drive terms of the families built on one rigid body.
 fn body_drive_terms(
     spec: &PlantSpec,
@@ -317,7 +356,6 @@ fn body_drive_terms(
 ) -> anyhow::Result<()> {
     let fam = spec.family.name();
     let n = d.y.len();
-    let has = |k: EffectKind| spec.effects.iter().any(|e| e.kind == k);
     let f = |name: &str| format!("{fam}.{name}");
     let dir: Vec<f64> =
         d.v.iter()
@@ -329,20 +367,15 @@ fn body_drive_terms(
     // The drive signal D and its gain K.
     let ratio = supply_ratio(spec, raw)?;
     let u = shaped_command(spec, raw, d.dt)?;
-    let kappa = if has(EffectKind::SupplyGain) {
-        Some(supply_gain::EXPONENT.value(spec)?)
-    } else {
-        None
-    };
-    let factor = |r: f64| kappa.map_or(1.0, |k| r.max(0.0).powf(k));
+    let shape = DriveEffects::of(spec)?;
     let (gain, drive_raw): (f64, Vec<f64>) = match spec.family {
         Family::LinearAxis if spec.command == CommandUnit::Volt => {
             let vs = p(spec, &f("supply_voltage_v"))?;
             let sig = u
                 .iter()
                 .zip(&ratio)
-                .map(|(&x, &r)| match kappa {
-                    Some(_) => x.clamp(-vs, vs) * factor(r),
+                .map(|(&x, &r)| match &shape.supply {
+                    Some(g) => x.clamp(-vs, vs) * g(r),
                     None => x.clamp(-vs * r, vs * r),
                 })
                 .collect();
@@ -364,8 +397,8 @@ fn body_drive_terms(
                         .iter()
                         .zip(&ratio)
                         .map(|(&x, &r)| {
-                            let volt = match kappa {
-                                Some(_) => x.clamp(0.0, vs) * factor(r),
+                            let volt = match &shape.supply {
+                                Some(g) => x.clamp(0.0, vs) * g(r),
                                 None => x.clamp(0.0, vs * r),
                             };
                             let now = i;
@@ -378,7 +411,8 @@ fn body_drive_terms(
             }
         }
         Family::Pneumatic => {
-            // Valves: v_c = K_I1 d (d < 0) or K_I2 d (d > 0), times (S/S_nom)^κ.
+            // Valves: v_c = K_I1 d (d < 0) or K_I2 d (d > 0), times the drive's factor from the
+            // supply when it follows it.
             let c = p(spec, &f("mass_kg"))? / p(spec, &f("velocity_time_constant_s"))?;
             let declared = |name: &str| !is_free(spec, &f(name));
             let from_data = !declared("gain_down_m_per_s") && !declared("gain_up_m_per_s");
@@ -387,13 +421,13 @@ fn body_drive_terms(
             let down: Vec<f64> = held_force(
                 u.iter()
                     .zip(&ratio)
-                    .map(|(&x, &r)| -c * x.clamp(-1.0, 0.0) * factor(r))
+                    .map(|(&x, &r)| -c * x.clamp(-1.0, 0.0) * shape.factor(r))
                     .collect(),
             );
             let up: Vec<f64> = held_force(
                 u.iter()
                     .zip(&ratio)
-                    .map(|(&x, &r)| -c * x.clamp(0.0, 1.0) * factor(r))
+                    .map(|(&x, &r)| -c * x.clamp(0.0, 1.0) * shape.factor(r))
                     .collect(),
             );
             let (dt, fc) = (d.dt, d.cutoff_hz);
@@ -409,7 +443,7 @@ fn body_drive_terms(
                 zero_phase(&up, fc, dt),
             )?);
             let compliance: Vec<f64> = d.v.iter().map(|v| c * v).collect();
-            if from_data && !has(EffectKind::Viscous) {
+            if from_data && !effects::present(spec).any(|e| e.spans_speed()) {
                 // Drive constants not given and no viscous damping beside the chamber: the
                 // compliance is the scale reference and the mass is fitted (its coefficient
                 // `μ = m c_decl / c`). The speed balance `v ≈ K d` is what a record resolves
@@ -447,103 +481,65 @@ fn body_drive_terms(
         // Drive force pieces, filtered after the nonlinear input stage.
         let (fc, dt) = (d.cutoff_hz, d.dt);
         let base = zero_phase(&drive_raw, fc, dt);
-        let (g_pos, g_neg) = if has(EffectKind::DirectionAsymmetry) {
-            (
-                direction_asymmetry::GAIN_POS.value(spec)?,
-                direction_asymmetry::GAIN_NEG.value(spec)?,
-            )
-        } else {
-            (1.0, 1.0)
-        };
-        let ps = if has(EffectKind::PositionStiffness) {
-            Some((
-                position_stiffness::POLE.value(spec)?,
-                position_stiffness::C0.value(spec)?,
-                position_stiffness::C1.value(spec)?,
-                position_stiffness::C2.value(spec)?,
-            ))
-        } else {
-            None
-        };
-        let c0 = ps.map_or(1.0, |s| s.1);
-        let gdir = |k: usize| if dir[k] > 0.0 { g_pos } else { g_neg };
-        // Reference: K D c0 on positive motion (and on negative motion without asymmetry).
-        if has(EffectKind::DirectionAsymmetry) {
-            terms.push(fixed_term(
-                "drive (positive motion)",
-                (0..n)
-                    .map(|k| {
-                        if dir[k] > 0.0 {
-                            -gain * base[k] * c0 * g_pos
-                        } else {
-                            0.0
-                        }
-                    })
-                    .collect(),
-            ));
-            terms.push(Term::param(
-                direction_asymmetry::GAIN_NEG.resolve(spec)?,
-                (0..n)
-                    .map(|k| {
-                        if dir[k] < 0.0 {
-                            -gain * base[k] * c0
-                        } else {
-                            0.0
-                        }
-                    })
-                    .collect(),
-            ));
-        } else {
-            terms.push(fixed_term(
+        let gdir: Vec<f64> = dir
+            .iter()
+            .map(|&s| match &shape.direction {
+                Some(g) if s > 0.0 => g.pos,
+                Some(g) => g.neg.value,
+                None => 1.0,
+            })
+            .collect();
+        let c0 = shape.position.as_ref().map_or(1.0, |g| g.held);
+        // Reference: K D c0 on positive motion (and on negative motion without a gain per
+        // direction, whose negative side is fitted).
+        match &shape.direction {
+            Some(g) => {
+                terms.push(fixed_term(
+                    "drive (positive motion)",
+                    (0..n)
+                        .map(|k| {
+                            if dir[k] > 0.0 {
+                                -gain * base[k] * c0 * g.pos
+                            } else {
+                                0.0
+                            }
+                        })
+                        .collect(),
+                ));
+                terms.push(Term::param(
+                    g.neg.clone(),
+                    (0..n)
+                        .map(|k| {
+                            if dir[k] < 0.0 {
+                                -gain * base[k] * c0
+                            } else {
+                                0.0
+                            }
+                        })
+                        .collect(),
+                ));
+            }
+            None => terms.push(fixed_term(
                 "drive",
                 (0..n).map(|k| -gain * base[k] * c0).collect(),
-            ));
+            )),
         }
-        if let Some((y0, _, _, _)) = ps {
-            terms.push(Term::param(
-                position_stiffness::C1.resolve(spec)?,
-                (0..n)
-                    .map(|k| -gain * base[k] * gdir(k) * (y0 - d.y[k]))
-                    .collect(),
-            ));
-            terms.push(Term::param(
-                position_stiffness::C2.resolve(spec)?,
-                (0..n)
-                    .map(|k| -gain * base[k] * gdir(k) * (y0 - d.y[k]).powi(2))
-                    .collect(),
-            ));
+        let drive = DriveForce {
+            gain,
+            signal: &base,
+            unfiltered: &drive_raw,
+            direction: &gdir,
+            position: shape.position.as_ref(),
+        };
+        let cx = Cx { spec, raw, d };
+        for e in effects::present(spec) {
+            e.drive_gain_terms(&cx, &drive, terms)?;
         }
-        if has(EffectKind::Hysteresis) {
-            let w = hysteresis::WIDTH.value(spec)?;
-            // Play on the unfiltered drive force, then filtered like every other column.
-            let full: Vec<f64> = (0..n)
-                .map(|k| {
-                    let g = ps.map_or(1.0, |(y0, c0, c1, c2)| {
-                        let e = y0 - raw.output[k];
-                        (c0 + e * (c1 + e * c2)).max(0.0)
-                    });
-                    gain * drive_raw[k] * gdir(k) * g
-                })
-                .collect();
-            let r = 0.5 * w;
-            let mut z = full[0];
-            let diff: Vec<f64> = full
-                .iter()
-                .map(|&fk| {
-                    z = z.clamp(fk - r, fk + r);
-                    -(z - fk)
-                })
-                .collect();
-            terms.push(fixed_term("hysteresis play", zero_phase(&diff, fc, dt)));
+        for e in effects::present(spec) {
+            e.drive_force_terms(&cx, &drive, terms)?;
         }
     }
     Ok(())
-}
-
-pub(super) fn pos_suffix(spec: &PlantSpec) -> &'static str {
-    spec.family
-        .suffix_and_unit(crate::physics::Quantity::Position, spec.command)
-        .0
 }
 
 impl Balance {
@@ -925,16 +921,21 @@ pub const COIL_TIME_CONSTANT: &str = "solenoid.current_time_constant_s";
 /// Set a nonlinear parameter, as the effect it belongs to ties it (the Stribeck velocity is one
 /// value for both directions).
 pub fn set_nonlinear(spec: &mut PlantSpec, name: &str, value: f64) -> anyhow::Result<()> {
-    let table = name.split_once('.').map_or("", |(t, _)| t);
-    match EffectKind::from_name(table) {
-        Some(kind) if spec.effects.iter().any(|e| e.kind == kind) => {
-            effects::of(kind)?.set_grid_value(spec, name, value)
-        }
-        _ => {
+    match owner(spec, name) {
+        Some(e) => e.set_grid_value(spec, name, value),
+        None => {
             spec.set(name, value)?;
             Ok(())
         }
     }
+}
+
+/// The lab side of the effect of `spec` whose parameter `name` (qualified) is, if any.
+fn owner(spec: &PlantSpec, name: &str) -> Option<&'static dyn effects::LabEffect> {
+    let table = name.split_once('.').map_or("", |(t, _)| t);
+    EffectKind::from_name(table)
+        .filter(|kind| spec.effects.iter().any(|e| e.kind == *kind))
+        .and_then(|kind| effects::of(kind).ok())
 }
 
 /// Fit a model's free parameters by inverse-dynamics regression: linear coefficients by least
@@ -982,11 +983,17 @@ pub fn fit_spec_on(
     for e in present {
         e.start(&mut spec, raw)?;
     }
+    // Grids whose parameter the record may not resolve: the smallest value as good as the best is
+    // kept.
+    let smallest: Vec<bool> = grids
+        .iter()
+        .map(|(name, _)| owner(&spec, name).is_some_and(|e| e.prefers_smallest()))
+        .collect();
     let searches = indices.len();
     let mut specs = vec![spec; searches];
     // The balance at each search's chosen point, kept for the final fit.
     let mut kept: Vec<Option<(PlantSpec, Rc<Balance>)>> = vec![None; searches];
-    for (name, grid) in grids {
+    for ((name, grid), smallest) in grids.into_iter().zip(smallest) {
         extra += 1;
         // Each point's residual sum of squares and its effective number of samples, per search.
         let mut scored: Vec<Vec<(f64, f64, f64)>> = vec![Vec::new(); searches];
@@ -1085,9 +1092,9 @@ pub fn fit_spec_on(
             let Some((r, g, bal)) = best[i].take() else {
                 continue;
             };
-            // The play kept may be smaller than the best point's: its balance is built again.
-            let chosen = if name.starts_with("backlash.gap") {
-                smallest_play_as_good(&scored[i], (r, g)).1
+            // The value kept may be smaller than the best point's: its balance is built again.
+            let chosen = if smallest {
+                smallest_as_good(&scored[i], (r, g)).1
             } else {
                 g
             };
@@ -1116,14 +1123,12 @@ pub fn fit_spec_on(
     Ok(out)
 }
 
-/// The smallest play of the grid that the record cannot tell from the best one: a play shows
-/// only where the transmitted torque reverses, and where the load is held there (a closed loop
-/// with stiction), the balance hardly depends on it; a wider play then wins by the noise of
-/// the drive side's run across it (on the README's heavy fork lever, 27.7 mrad against the
-/// plant's 5 by 1.3 % of the residual). A play is as good as the best where the likelihood
-/// ratio of the two, `N_eff ln(RSS / RSS_best)`, stays below the χ² quantile of one parameter.
-/// `scored` holds `(play, RSS, N_eff)`; `best` is `(RSS, play)`.
-fn smallest_play_as_good(scored: &[(f64, f64, f64)], best: (f64, f64)) -> (f64, f64) {
+/// The smallest value of the grid that the record cannot tell from the best one, for a parameter
+/// whose larger values may win by chance ([`effects::LabEffect::prefers_smallest`], a play). A
+/// value is as good as the best where the likelihood ratio of the two, `N_eff ln(RSS /
+/// RSS_best)`, stays below the χ² quantile of one parameter. `scored` holds `(value, RSS,
+/// N_eff)`; `best` is `(RSS, value)`.
+fn smallest_as_good(scored: &[(f64, f64, f64)], best: (f64, f64)) -> (f64, f64) {
     let (best_rss, _) = best;
     scored
         .iter()
@@ -1266,16 +1271,13 @@ mod tests {
             (2e-3, 2.507, 200.0),
             (2.8e-2, 2.4755, 200.0),
         ];
-        assert_eq!(
-            smallest_play_as_good(&flat, (2.4755, 2.8e-2)),
-            (2.508, 1e-4)
-        );
+        assert_eq!(smallest_as_good(&flat, (2.4755, 2.8e-2)), (2.508, 1e-4));
         let shown = [
             (1e-4, 2.6, 200.0),
             (5e-3, 2.476, 200.0),
             (2.8e-2, 2.5, 200.0),
         ];
-        assert_eq!(smallest_play_as_good(&shown, (2.476, 5e-3)), (2.476, 5e-3));
+        assert_eq!(smallest_as_good(&shown, (2.476, 5e-3)), (2.476, 5e-3));
     }
 
     fn data(u: Vec<f64>) -> Dataset {

@@ -19,9 +19,10 @@
 //! the play, which a rigid contact cannot produce.
 
 use super::data::Dataset;
-use super::regress::{fixed_term, p, param_term, pos_suffix, shaped_command, supply_ratio, Term};
+use super::effects::{self, Gear, SupplyFactor};
+use super::regress::{fixed_term, p, param_term, shaped_command, supply_ratio, Term};
 use super::signals::{abs_quantile, derivative, prepare, zero_phase, Prepared};
-use crate::physics::{CommandUnit, EffectKind, PlantSpec};
+use crate::physics::{CommandUnit, PlantSpec};
 
 /// Sub-steps of the drive side per sample: 0.1 ms at 1 kHz, against the contact mode of about
 /// 20 Hz and the armature's `L_a / R_a` of 0.3 ms (integrated exactly).
@@ -173,7 +174,7 @@ fn speed_noise_gain(cutoff_hz: f64, dt: f64) -> f64 {
     v.iter().map(|h| h * h).sum::<f64>().sqrt()
 }
 
-/// Drive-side constants, referred to the gear output.
+/// Drive-side constants, referred to the gear output, and the gear as the model's effects make it.
 struct Drive {
     r: f64,
     l: f64,
@@ -182,66 +183,54 @@ struct Drive {
     jm: f64,
     h0: f64,
     jg: f64,
-    kg: f64,
-    cg: f64,
     supply_v: f64,
-    half_gap: Option<f64>,
-    max_angle: Option<f64>,
-    exponent: Option<f64>,
+    /// The ratio and the contact between gear and load.
+    gear: Gear,
+    /// Factor of the drive at the supply ratio; `None`: the supply only limits the drive.
+    supply: Option<SupplyFactor>,
 }
 
 impl Drive {
     fn of(spec: &PlantSpec) -> anyhow::Result<Drive> {
         let g = |n: &str| p(spec, &format!("motor_gear.{n}"));
-        let has = |k: EffectKind| spec.effects.iter().any(|e| e.kind == k);
-        let pos = pos_suffix(spec);
+        let (h0, kg, cg) = (
+            g("ratio")?,
+            g("contact_stiffness_nm_per_rad")?,
+            g("contact_damping_nm_s_per_rad")?,
+        );
+        let mut gear = Gear::rigid(h0, kg, cg);
+        let mut supply = None;
+        for e in effects::present(spec) {
+            e.gear(spec, &mut gear)?;
+            if supply.is_none() {
+                supply = e.supply_factor(spec)?;
+            }
+        }
         Ok(Drive {
             r: g("resistance_ohm")?,
             l: g("inductance_h")?,
             ke: g("back_emf_v_s_per_rad")?,
             kt: g("torque_constant_nm_per_a")?,
             jm: g("motor_inertia_kg_m2")?,
-            h0: g("ratio")?,
+            h0,
             jg: g("gear_inertia_kg_m2")?,
-            kg: g("contact_stiffness_nm_per_rad")?,
-            cg: g("contact_damping_nm_s_per_rad")?,
             supply_v: g("supply_voltage_v")?,
-            half_gap: has(EffectKind::Backlash)
-                .then(|| p(spec, &format!("backlash.gap{pos}")).map(|g| 0.5 * g))
-                .transpose()?,
-            max_angle: has(EffectKind::VaryingRatio)
-                .then(|| p(spec, &format!("varying_ratio.max_angle{pos}")))
-                .transpose()?,
-            exponent: has(EffectKind::SupplyGain)
-                .then(|| p(spec, "supply_gain.exponent"))
-                .transpose()?,
+            gear,
+            supply,
         })
     }
 
-    /// Ratio `h = h_0 / cos θ_l` (`|θ_l|` limited) and its rate `ḣ` at load angle and speed.
+    /// Ratio `h` and its rate `ḣ` at load angle and speed.
     #[inline]
     fn ratio(&self, th: f64, w: f64) -> (f64, f64) {
-        match self.max_angle {
-            Some(m) if th.abs() < m => {
-                let c = th.cos();
-                // h = h_0 / cos θ, dh/dt = h_0 sin θ / cos² θ · θ'
-                (self.h0 / c, self.h0 * th.sin() / (c * c) * w)
-            }
-            Some(m) => (self.h0 / m.cos(), 0.0),
-            None => (self.h0, 0.0),
-        }
+        (self.gear.ratio)(th, w)
     }
 
     /// Contact torque from gear to load for twist `Δ = θ_g - θ_l` and its rate (Bao et al.
-    /// eq. 1-2: a spring-damper, or a dead zone of half width `b` with one-sided contact).
+    /// eq. 1-2).
     #[inline]
     fn contact(&self, twist: f64, rate: f64) -> f64 {
-        match self.half_gap {
-            None => self.kg * twist + self.cg * rate,
-            Some(b) if twist >= b => (self.kg * (twist - b) + self.cg * rate).max(0.0),
-            Some(b) if twist <= -b => (self.kg * (twist + b) + self.cg * rate).min(0.0),
-            Some(_) => 0.0,
-        }
+        (self.gear.contact)(twist, rate)
     }
 }
 
@@ -278,8 +267,8 @@ pub fn transmitted_torque(spec: &PlantSpec, raw: &Dataset, dt: f64) -> anyhow::R
             u[k]
         } else {
             let r = supply[k];
-            match c.exponent {
-                Some(kappa) => u[k].clamp(-c.supply_v, c.supply_v) * r.max(0.0).powf(kappa),
+            match &c.supply {
+                Some(f) => u[k].clamp(-c.supply_v, c.supply_v) * f(r),
                 None => u[k].clamp(-c.supply_v * r, c.supply_v * r),
             }
         };
@@ -317,7 +306,7 @@ pub fn transmitted_torque(spec: &PlantSpec, raw: &Dataset, dt: f64) -> anyhow::R
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::physics::Family;
+    use crate::physics::{EffectKind, Family};
 
     fn gear(torque: bool, backlash: Option<f64>) -> PlantSpec {
         let mut s = PlantSpec::new(Family::MotorGear);
@@ -345,7 +334,7 @@ mod tests {
     #[test]
     fn contact_is_free_inside_the_gap_and_a_spring_damper_outside() {
         let d = Drive::of(&gear(false, Some(0.01))).expect("drive");
-        let (kg, cg) = (d.kg, d.cg);
+        let (kg, cg) = (d.gear.stiffness, d.gear.damping);
         assert_eq!(d.contact(0.004, 1.0), 0.0);
         assert_eq!(d.contact(-0.004, -1.0), 0.0);
         assert!((d.contact(0.007, 0.0) - kg * 0.002).abs() < 1e-12);
@@ -445,7 +434,7 @@ mod tests {
         }
         d.current = Some(current);
         let c = Drive::of(&spec).expect("drive");
-        let half = c.half_gap.expect("play");
+        let half = 0.5 * 0.005;
         let lab = transmitted_torque(&spec, &d, dt).expect("torque");
         let (mut err, mut total) = (0.0, 0.0);
         for k in 100..n - 1 {

@@ -2,10 +2,10 @@
 //! ([`crate::lab::regress_gear`]), searched on a grid; its signature is a residual that bursts
 //! after the drive reverses.
 
-use super::{geometric, Cx, Evidence, Grid, LabEffect};
+use super::{geometric, Cx, Evidence, Gear, Grid, LabEffect};
 use crate::lab::params::Key;
 use crate::lab::signals::{abs_quantile, Prepared};
-use crate::physics::{EffectKind, Family};
+use crate::physics::{EffectKind, Family, PlantSpec};
 
 const GAP: Key = Key::effect(EffectKind::Backlash, "gap");
 
@@ -36,6 +36,31 @@ impl LabEffect for Backlash {
     fn nonlinear(&self, cx: &Cx) -> anyhow::Result<Vec<(String, f64)>> {
         let h = GAP.resolve(cx.spec)?;
         Ok(vec![(h.name, h.value)])
+    }
+
+    fn gear(&self, spec: &PlantSpec, gear: &mut Gear) -> anyhow::Result<()> {
+        let b = 0.5 * GAP.value(spec)?;
+        let (kg, cg) = (gear.stiffness, gear.damping);
+        // Bao et al. eq. 1-2: a dead zone of half width b, the contact one-sided (it pushes, it
+        // never pulls).
+        gear.contact = Box::new(move |twist, rate| {
+            if twist >= b {
+                (kg * (twist - b) + cg * rate).max(0.0)
+            } else if twist <= -b {
+                (kg * (twist + b) + cg * rate).min(0.0)
+            } else {
+                0.0
+            }
+        });
+        Ok(())
+    }
+
+    /// A play shows only where the transmitted torque reverses, and where the load is held there
+    /// (a closed loop with stiction), the balance hardly depends on it; a wider play then wins by
+    /// the noise of the drive side's run across it (on the README's heavy fork lever, 27.7 mrad
+    /// against the plant's 5 by 1.3 % of the residual).
+    fn prefers_smallest(&self) -> bool {
+        true
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

@@ -1,16 +1,16 @@
 //! `direction_asymmetry` in the lab: the drive gain of negative motion relative to positive, a
-//! column of the drive force (built with the drive in `regress.rs`); its signature is a
-//! residual that follows the command differently in each direction.
+//! gain per direction of the drive force (its negative side a column of its own); its signature
+//! is a residual that follows the command differently in each direction.
 
-use super::{corr, Evidence, LabEffect};
+use super::{corr, DirectionGain, Evidence, LabEffect};
 use crate::lab::params::Key;
 use crate::lab::signals::Prepared;
-use crate::physics::{EffectKind, Family};
+use crate::physics::{EffectKind, Family, PlantSpec};
 
 /// Drive gain on positive motion (the reference).
-pub const GAIN_POS: Key = Key::effect(EffectKind::DirectionAsymmetry, "gain_pos");
+const GAIN_POS: Key = Key::effect(EffectKind::DirectionAsymmetry, "gain_pos");
 /// Drive gain on negative motion (fitted).
-pub const GAIN_NEG: Key = Key::effect(EffectKind::DirectionAsymmetry, "gain_neg");
+const GAIN_NEG: Key = Key::effect(EffectKind::DirectionAsymmetry, "gain_neg");
 
 /// The lab's side of `direction_asymmetry`.
 pub struct DirectionAsymmetry;
@@ -26,6 +26,13 @@ impl LabEffect for DirectionAsymmetry {
 
     fn representable(&self, family: Family, _d: &Prepared) -> bool {
         family == Family::LinearAxis
+    }
+
+    fn direction_gain(&self, spec: &PlantSpec) -> anyhow::Result<Option<DirectionGain>> {
+        Ok(Some(DirectionGain {
+            pos: GAIN_POS.value(spec)?,
+            neg: GAIN_NEG.resolve(spec)?,
+        }))
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

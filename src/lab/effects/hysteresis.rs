@@ -1,14 +1,15 @@
-//! `hysteresis` in the lab: a play of width `w` on the drive force (the play column is built
-//! with the drive in `regress.rs`), the width searched on a grid scaled by the drive force; its
-//! signature is a residual that follows the sign of the drive's change.
+//! `hysteresis` in the lab: a play of width `w` on the whole drive force, a column of its own,
+//! the width searched on a grid scaled by the drive force; its signature is a residual that
+//! follows the sign of the drive's change.
 
-use super::{geometric, Cx, Evidence, Grid, LabEffect};
+use super::{geometric, Cx, DriveForce, Evidence, Grid, LabEffect};
 use crate::lab::params::Key;
-use crate::lab::signals::{abs_quantile, Prepared};
+use crate::lab::regress::{fixed_term, Term};
+use crate::lab::signals::{abs_quantile, zero_phase, Prepared};
 use crate::physics::{CommandUnit, EffectKind, Family};
 
 /// Width of the play.
-pub const WIDTH: Key = Key::effect(EffectKind::Hysteresis, "width");
+const WIDTH: Key = Key::effect(EffectKind::Hysteresis, "width");
 
 /// The lab's side of `hysteresis`.
 pub struct Hysteresis;
@@ -51,6 +52,36 @@ impl LabEffect for Hysteresis {
     fn nonlinear(&self, cx: &Cx) -> anyhow::Result<Vec<(String, f64)>> {
         let h = WIDTH.resolve(cx.spec)?;
         Ok(vec![(h.name, h.value)])
+    }
+
+    fn drive_force_terms(
+        &self,
+        cx: &Cx,
+        drive: &DriveForce,
+        terms: &mut Vec<Term>,
+    ) -> anyhow::Result<()> {
+        let w = WIDTH.value(cx.spec)?;
+        let (raw, d) = (cx.raw, cx.d);
+        // Play on the unfiltered drive force, then filtered like every other column.
+        let full: Vec<f64> = (0..d.y.len())
+            .map(|k| drive.whole(k, raw.output[k]))
+            .collect();
+        let r = 0.5 * w;
+        let mut z = full.first().copied().unwrap_or(0.0);
+        // The play z = clamp(z, F - w/2, F + w/2); its column is what it takes off the force,
+        // F - z.
+        let diff: Vec<f64> = full
+            .iter()
+            .map(|&fk| {
+                z = z.clamp(fk - r, fk + r);
+                -(z - fk)
+            })
+            .collect();
+        terms.push(fixed_term(
+            "hysteresis play",
+            zero_phase(&diff, d.cutoff_hz, d.dt),
+        ));
+        Ok(())
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

@@ -1,6 +1,7 @@
 //! The lab's side of each physical effect, one file each beside `physics/effects/`: when the
 //! balance of forces can represent it, the columns it adds, the grid of its nonlinear parameters,
-//! how it shapes the command, and the signature the diagnosis looks for in a residual. The
+//! how it shapes the command, what it does to the drive, and the signature the diagnosis looks
+//! for in a residual. The
 //! regression ([`super::regress`]) and the diagnosis ([`super::diagnose`]) run over these
 //! descriptions.
 //!
@@ -8,9 +9,13 @@
 //! with a unit struct named like its physics type, implementing [`LabEffect`]. The modules and
 //! [`REGISTRY`] are made from the physics' catalogue (`physics::effects::catalogue!`), so the
 //! lab names no effect here; each side's [`LabEffect::place`] is the order of its columns and of
-//! its nonlinear parameters in a fit. An effect that changes the drive force of the one-body
-//! families (as `direction_asymmetry`, `position_stiffness` and `hysteresis` do) still needs its
-//! place in `regress.rs`'s drive.
+//! its nonlinear parameters in a fit. An effect that changes the drive needs no place in
+//! `regress.rs` or `regress_gear.rs` either: its hooks give the drive's factor from the supply
+//! ([`LabEffect::supply_factor`]), its gain per direction or by position
+//! ([`LabEffect::direction_gain`], [`LabEffect::position_gain`]), the columns it adds to the
+//! drive force of the one-body families ([`LabEffect::drive_gain_terms`],
+//! [`LabEffect::drive_force_terms`]) and what it changes in `motor_gear`'s gear
+//! ([`LabEffect::gear`]); the regression composes them over the effects of the model.
 
 use super::data::Dataset;
 use super::params::Handle;
@@ -43,6 +48,84 @@ pub struct Cx<'a> {
 /// A grid of values for one nonlinear parameter (qualified name, values), searched with the
 /// linear parameters refitted at each point.
 pub type Grid = (String, Vec<f64>);
+
+/// Factor of the drive at the supply ratio `r = S / S_nom` (see [`LabEffect::supply_factor`]).
+pub type SupplyFactor = Box<dyn Fn(f64) -> f64>;
+
+/// A gain of the drive per direction of motion: held on positive motion, where it is part of the
+/// balance's scale reference, fitted on negative motion.
+#[derive(Debug, Clone)]
+pub struct DirectionGain {
+    /// Gain on positive motion (held).
+    pub pos: f64,
+    /// Gain on negative motion: the parameter its column fits.
+    pub neg: Handle,
+}
+
+/// A gain of the drive that varies with the position.
+pub struct PositionGain {
+    /// The part held in the drive's reference column; the effect's own columns
+    /// ([`LabEffect::drive_gain_terms`]) carry the rest.
+    pub held: f64,
+    /// The whole gain at a position.
+    pub at: Box<dyn Fn(f64) -> f64>,
+}
+
+/// The drive force of a one-body family as the effects' columns on it see it:
+/// `F(k) = K D(k) K±(k) G(y_k)`.
+pub struct DriveForce<'a> {
+    /// `K`, the drive's gain (force per unit of the drive signal).
+    pub gain: f64,
+    /// `D`, the drive signal after the power stage (held, moved to the acceleration's instant),
+    /// filtered like every column.
+    pub signal: &'a [f64],
+    /// The same signal before the filter.
+    pub unfiltered: &'a [f64],
+    /// `K±`, the gain of the direction of motion at each sample (1 without a direction gain).
+    pub direction: &'a [f64],
+    /// `G`, the gain by position, when an effect makes one.
+    pub position: Option<&'a PositionGain>,
+}
+
+impl DriveForce<'_> {
+    /// The whole drive force at sample `k` before the filter, at the measured position `y`:
+    /// `F = K D K± G(y)`.
+    pub fn whole(&self, k: usize, y: f64) -> f64 {
+        self.gain
+            * self.unfiltered[k]
+            * self.direction[k]
+            * self.position.map_or(1.0, |g| (g.at)(y))
+    }
+}
+
+/// `motor_gear`'s gear as its drive side runs it: the ratio and the contact between gear and
+/// load, rigid and constant unless an effect changes them ([`LabEffect::gear`]).
+pub struct Gear {
+    /// `h_0`, the nominal ratio.
+    pub nominal_ratio: f64,
+    /// `K_g`, the contact's stiffness (N·m/rad).
+    pub stiffness: f64,
+    /// `C_g`, the contact's damping (N·m·s/rad).
+    pub damping: f64,
+    /// The ratio `h` and its rate `ḣ` at load angle `θ_l` and speed `ω_l`.
+    pub ratio: Box<dyn Fn(f64, f64) -> (f64, f64)>,
+    /// The torque from gear to load at twist `Δ = θ_g - θ_l` and its rate.
+    pub contact: Box<dyn Fn(f64, f64) -> f64>,
+}
+
+impl Gear {
+    /// A gear of constant ratio `h_0` with a rigid contact.
+    pub fn rigid(nominal_ratio: f64, stiffness: f64, damping: f64) -> Gear {
+        Gear {
+            nominal_ratio,
+            stiffness,
+            damping,
+            ratio: Box::new(move |_, _| (nominal_ratio, 0.0)),
+            // τ_c = K_g Δ + C_g Δ' (Bao et al. eq. 1, no play)
+            contact: Box::new(move |twist, rate| stiffness * twist + damping * rate),
+        }
+    }
+}
 
 /// The levels that hold a body at rest (stiction): the breakaway force in each direction.
 #[derive(Debug, Clone)]
@@ -115,6 +198,63 @@ pub trait LabEffect: Sync {
         _terms: &mut Vec<Term>,
     ) -> anyhow::Result<()> {
         Ok(())
+    }
+
+    /// Factor of the drive at the supply ratio `r = S / S_nom`, when the power stage is computed
+    /// for the nominal supply and the drive follows the actual one; `None`: the supply only
+    /// limits the drive.
+    fn supply_factor(&self, _spec: &PlantSpec) -> anyhow::Result<Option<SupplyFactor>> {
+        Ok(None)
+    }
+
+    /// The drive's gain per direction of motion, when the effect makes one.
+    fn direction_gain(&self, _spec: &PlantSpec) -> anyhow::Result<Option<DirectionGain>> {
+        Ok(None)
+    }
+
+    /// The drive's gain by position, when the effect makes one.
+    fn position_gain(&self, _spec: &PlantSpec) -> anyhow::Result<Option<PositionGain>> {
+        Ok(None)
+    }
+
+    /// Its columns on the filtered drive force of a one-body family, linear in its parameters
+    /// (after the drive's reference column).
+    fn drive_gain_terms(
+        &self,
+        _cx: &Cx,
+        _drive: &DriveForce,
+        _terms: &mut Vec<Term>,
+    ) -> anyhow::Result<()> {
+        Ok(())
+    }
+
+    /// Its columns built on the whole drive force before the filter (after every effect's
+    /// [`LabEffect::drive_gain_terms`]).
+    fn drive_force_terms(
+        &self,
+        _cx: &Cx,
+        _drive: &DriveForce,
+        _terms: &mut Vec<Term>,
+    ) -> anyhow::Result<()> {
+        Ok(())
+    }
+
+    /// What it changes in `motor_gear`'s gear.
+    fn gear(&self, _spec: &PlantSpec, _gear: &mut Gear) -> anyhow::Result<()> {
+        Ok(())
+    }
+
+    /// True when one of its columns is proportional to the speed, as the pneumatic chamber's
+    /// compliance `(m/τ) v` is: the two cannot both be fitted with the compliance as the scale.
+    fn spans_speed(&self) -> bool {
+        false
+    }
+
+    /// True when a value of its grid parameter below the best point's, that the record cannot
+    /// tell from the best, is kept (a parameter the record may not resolve, whose larger values
+    /// win by chance).
+    fn prefers_smallest(&self) -> bool {
+        false
     }
 
     /// The levels that hold the body at rest, when the effect is one that does.

@@ -1,14 +1,14 @@
-//! `supply_gain` in the lab: the drive's gain times `(S / S_nom)^κ` (applied with the drive in
-//! `regress.rs` and `regress_gear.rs`), the exponent searched on a grid; its signature is a
-//! residual structured by supply times command.
+//! `supply_gain` in the lab: the drive's gain times `(S / S_nom)^κ` (the power stage computed for
+//! the nominal supply), the exponent searched on a grid; its signature is a residual structured
+//! by supply times command.
 
-use super::{command_visible, corr, Cx, Evidence, Grid, LabEffect};
+use super::{command_visible, corr, Cx, Evidence, Grid, LabEffect, SupplyFactor};
 use crate::lab::params::Key;
 use crate::lab::signals::Prepared;
-use crate::physics::{EffectKind, Family};
+use crate::physics::{EffectKind, Family, PlantSpec};
 
 /// The exponent `κ`.
-pub const EXPONENT: Key = Key::effect(EffectKind::SupplyGain, "exponent");
+const EXPONENT: Key = Key::effect(EffectKind::SupplyGain, "exponent");
 
 /// The lab's side of `supply_gain`.
 pub struct SupplyGain;
@@ -36,6 +36,13 @@ impl LabEffect for SupplyGain {
     fn nonlinear(&self, cx: &Cx) -> anyhow::Result<Vec<(String, f64)>> {
         let h = EXPONENT.resolve(cx.spec)?;
         Ok(vec![(h.name, h.value)])
+    }
+
+    fn supply_factor(&self, spec: &PlantSpec) -> anyhow::Result<Option<SupplyFactor>> {
+        let kappa = EXPONENT.value(spec)?;
+        // The drive's factor (S / S_nom)^κ, none from a supply below zero.
+        let factor = move |r: f64| r.max(0.0).powf(kappa);
+        Ok(Some(Box::new(factor)))
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

@@ -2,10 +2,10 @@
 //! transmitted torque ([`crate::lab::regress_gear`]), its angle limit searched on a grid; its
 //! signature is a drive gain that grows with the load angle.
 
-use super::{corr, Cx, Evidence, Grid, LabEffect};
+use super::{corr, Cx, Evidence, Gear, Grid, LabEffect};
 use crate::lab::params::Key;
 use crate::lab::signals::{abs_quantile, Prepared};
-use crate::physics::{EffectKind, Family};
+use crate::physics::{EffectKind, Family, PlantSpec};
 
 const MAX_ANGLE: Key = Key::effect(EffectKind::VaryingRatio, "max_angle");
 
@@ -38,6 +38,22 @@ impl LabEffect for VaryingRatio {
     fn nonlinear(&self, cx: &Cx) -> anyhow::Result<Vec<(String, f64)>> {
         let h = MAX_ANGLE.resolve(cx.spec)?;
         Ok(vec![(h.name, h.value)])
+    }
+
+    fn gear(&self, spec: &PlantSpec, gear: &mut Gear) -> anyhow::Result<()> {
+        let m = MAX_ANGLE.value(spec)?;
+        let h0 = gear.nominal_ratio;
+        gear.ratio = Box::new(move |th, w| {
+            if th.abs() < m {
+                let c = th.cos();
+                // h = h_0 / cos θ, dh/dt = h_0 sin θ / cos² θ · θ'
+                (h0 / c, h0 * th.sin() / (c * c) * w)
+            } else {
+                // Beyond the limit the ratio stays at its value there.
+                (h0 / m.cos(), 0.0)
+            }
+        });
+        Ok(())
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

@@ -40,6 +40,10 @@ impl LabEffect for Viscous {
         Ok(())
     }
 
+    fn spans_speed(&self) -> bool {
+        true
+    }
+
     fn evidence(&self, ev: &Evidence) -> String {
         format!(
             "residual grows with velocity: correlation with v {:+.2}",
