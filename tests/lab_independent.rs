@@ -37,7 +37,7 @@ fn cases() -> Vec<(Plant, Option<Hidden>)> {
     for h in [H::Coulomb, H::Viscous, H::Hysteresis] {
         v.push((Plant::Solenoid, Some(h)));
     }
-    for h in [H::Coulomb, H::SupplyFriction] {
+    for h in [H::Coulomb, H::SupplyFriction, H::SupplyGain] {
         v.push((Plant::Pneumatic, Some(h)));
     }
     for p in [Plant::ServoAxis, Plant::Solenoid] {
@@ -53,7 +53,6 @@ fn open_cases() -> Vec<(Plant, Option<Hidden>)> {
     vec![
         (Plant::ServoAxis, Some(H::Stribeck)),
         (Plant::ServoAxis, Some(H::Payload)),
-        (Plant::Pneumatic, Some(H::SupplyGain)),
         (Plant::Pneumatic, None),
     ]
 }
@@ -91,14 +90,15 @@ fn run(plant: Plant, hidden: Option<Hidden>, seed: u64, length: f64) -> Outcome 
         eprintln!("  {truth:?}");
         for c in &dg.candidates {
             eprintln!(
-                "    {:<20} NRMSE {:.4} drop {:+.3} held-out {:+.3} ΔBIC {:9.1} {} | {}",
+                "    {:<20} NRMSE {:.4} drop {:+.3} held-out {:+.3} ΔBIC {:9.1} {} | {} | {:?}",
                 c.effect,
                 c.nrmse,
                 c.improvement,
                 c.holdout_improvement,
                 c.delta_bic,
                 if c.significant { "*" } else { " " },
-                c.evidence
+                c.evidence,
+                c.parameters
             );
         }
     }

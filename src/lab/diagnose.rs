@@ -15,7 +15,7 @@ use super::model::Model;
 use super::regress::{balance, fit_spec, fit_spec_on, representable, IdFit};
 use super::signals::Prepared;
 use crate::ident::f_test_nested;
-use crate::physics::{EffectKind, PlantSpec};
+use crate::physics::{EffectKind, Family, PlantSpec};
 
 /// Thresholds of the verdict.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -87,8 +87,16 @@ pub struct Diagnosis {
 
 /// The signature of `kind` in the residual `base` of the model without it, as its lab side
 /// describes it ([`super::effects`]).
-fn evidence(kind: EffectKind, base: &IdFit, data: &Dataset, d: &Prepared, unit: &str) -> String {
+fn evidence(
+    kind: EffectKind,
+    family: Family,
+    base: &IdFit,
+    data: &Dataset,
+    d: &Prepared,
+    unit: &str,
+) -> String {
     let ev = Evidence {
+        family,
         base,
         data,
         d,
@@ -141,7 +149,11 @@ pub fn diagnose(
     // residual's unit moves with that parameter, and a base fitted from the declared values
     // would be measured in other units than the candidates (every candidate then showed a large
     // positive ΔBIC on the pneumatic balance).
-    let (mut base_spec, base) = fit_spec(&first_spec, data, d, None)?;
+    let (mut base_spec, _) = fit_spec(&first_spec, data, d, None)?;
+    // The base is the fit from that start, as every candidate's is: where the refit moves the
+    // balance's scale (the pneumatic coupling fitted with the declared mass as the reference),
+    // the start's own fit would be in other units than the candidates'.
+    let (_, base) = fit_spec(&base_spec, data, d, None)?;
     for (name, _) in &drive {
         base_spec.set_free(name, false)?;
     }
@@ -353,7 +365,7 @@ fn candidate(
         nrmse: fit.nrmse,
         improvement,
         significant,
-        evidence: evidence(kind, base, data, d, unit),
+        evidence: evidence(kind, fitted.family, base, data, d, unit),
         p_value,
         delta_bic,
         holdout_improvement,

@@ -341,9 +341,10 @@ impl DriveEffects {
         Ok(out)
     }
 
-    /// The drive's factor at the supply ratio `r` (1 when it does not follow the supply).
-    fn factor(&self, r: f64) -> f64 {
-        self.supply.as_ref().map_or(1.0, |f| f(r))
+    /// The drive's factor at the supply ratio `r` for a command of sign `positive` (1 when it
+    /// does not follow the supply).
+    fn factor(&self, r: f64, positive: bool) -> f64 {
+        self.supply.as_ref().map_or(1.0, |f| f(r, positive))
     }
 }
 
@@ -375,7 +376,7 @@ fn body_drive_terms(
                 .iter()
                 .zip(&ratio)
                 .map(|(&x, &r)| match &shape.supply {
-                    Some(g) => x.clamp(-vs, vs) * g(r),
+                    Some(g) => x.clamp(-vs, vs) * g(r, x > 0.0),
                     None => x.clamp(-vs * r, vs * r),
                 })
                 .collect();
@@ -398,7 +399,7 @@ fn body_drive_terms(
                         .zip(&ratio)
                         .map(|(&x, &r)| {
                             let volt = match &shape.supply {
-                                Some(g) => x.clamp(0.0, vs) * g(r),
+                                Some(g) => x.clamp(0.0, vs) * g(r, true),
                                 None => x.clamp(0.0, vs * r),
                             };
                             let now = i;
@@ -412,7 +413,7 @@ fn body_drive_terms(
         }
         Family::Pneumatic => {
             // Valves: v_c = K_I1 d (d < 0) or K_I2 d (d > 0), times the drive's factor from the
-            // supply when it follows it.
+            // supply when it follows it, each valve by its own law (`K_I1(P_L)`, `K_I2(P_L)`).
             let c = p(spec, &f("mass_kg"))? / p(spec, &f("velocity_time_constant_s"))?;
             let declared = |name: &str| !is_free(spec, &f(name));
             let from_data = !declared("gain_down_m_per_s") && !declared("gain_up_m_per_s");
@@ -421,13 +422,13 @@ fn body_drive_terms(
             let down: Vec<f64> = held_force(
                 u.iter()
                     .zip(&ratio)
-                    .map(|(&x, &r)| -c * x.clamp(-1.0, 0.0) * shape.factor(r))
+                    .map(|(&x, &r)| -c * x.clamp(-1.0, 0.0) * shape.factor(r, false))
                     .collect(),
             );
             let up: Vec<f64> = held_force(
                 u.iter()
                     .zip(&ratio)
-                    .map(|(&x, &r)| -c * x.clamp(0.0, 1.0) * shape.factor(r))
+                    .map(|(&x, &r)| -c * x.clamp(0.0, 1.0) * shape.factor(r, true))
                     .collect(),
             );
             let (dt, fc) = (d.dt, d.cutoff_hz);

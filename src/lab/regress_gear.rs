@@ -268,7 +268,7 @@ pub fn transmitted_torque(spec: &PlantSpec, raw: &Dataset, dt: f64) -> anyhow::R
         } else {
             let r = supply[k];
             match &c.supply {
-                Some(f) => u[k].clamp(-c.supply_v, c.supply_v) * f(r),
+                Some(f) => u[k].clamp(-c.supply_v, c.supply_v) * f(r, u[k] > 0.0),
                 None => u[k].clamp(-c.supply_v * r, c.supply_v * r),
             }
         };

@@ -49,8 +49,9 @@ pub struct Cx<'a> {
 /// linear parameters refitted at each point.
 pub type Grid = (String, Vec<f64>);
 
-/// Factor of the drive at the supply ratio `r = S / S_nom` (see [`LabEffect::supply_factor`]).
-pub type SupplyFactor = Box<dyn Fn(f64) -> f64>;
+/// Factor of the drive at the supply ratio `r = S / S_nom` for a command of sign `positive` (see
+/// [`LabEffect::supply_factor`]).
+pub type SupplyFactor = Box<dyn Fn(f64, bool) -> f64>;
 
 /// A gain of the drive per direction of motion: held on positive motion, where it is part of the
 /// balance's scale reference, fitted on negative motion.
@@ -307,6 +308,8 @@ pub fn geometric(lo: f64, hi: f64, n: usize) -> Vec<f64> {
 
 /// What the diagnosis shows an effect: the residual of the model without it and the data.
 pub struct Evidence<'a> {
+    /// The family of the model.
+    pub family: Family,
     /// The fit of the model without the effect.
     pub base: &'a IdFit,
     /// The raw data set.
@@ -453,6 +456,7 @@ mod tests {
                     .unwrap_or_else(|e| panic!("{family} with {kind}: grid: {e:#}"));
                 let fit = bal.evaluate();
                 let ev = Evidence {
+                    family,
                     base: &fit,
                     data: &raw,
                     d: &d,
