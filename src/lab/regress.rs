@@ -190,10 +190,29 @@ pub(super) fn supply_ratio(spec: &PlantSpec, raw: &Dataset) -> anyhow::Result<Ve
         (Some(s), Family::Pneumatic) => {
             let atm = p(spec, "pneumatic.atmosphere_pa")?;
             let nom = p(spec, "pneumatic.supply_pressure_pa")?;
+            // The drive's supply is a low pressure, absolute: a value at or above the atmosphere
+            // is a gauge pressure or another column, and would give no drive at all.
+            if let Some((k, x)) = s.iter().enumerate().find(|(_, &x)| !(x < atm)) {
+                anyhow::bail!(
+                    "{}: supply at sample {} (t = {} s) is {x} Pa, not below the atmosphere ({atm} \
+                     Pa): the pneumatic supply is the absolute low pressure in Pa",
+                    raw.origin,
+                    k + 1,
+                    raw.time.get(k).copied().unwrap_or(f64::NAN)
+                );
+            }
             s.iter().map(|x| (atm - x) / (atm - nom)).collect()
         }
         (Some(s), _) => {
             let nom = p(spec, &format!("{fam}.supply_voltage_v"))?;
+            if let Some((k, x)) = s.iter().enumerate().find(|(_, &x)| !(x >= 0.0)) {
+                anyhow::bail!(
+                    "{}: supply at sample {} (t = {} s) is {x} V: a supply voltage is >= 0",
+                    raw.origin,
+                    k + 1,
+                    raw.time.get(k).copied().unwrap_or(f64::NAN)
+                );
+            }
             s.iter().map(|x| x / nom).collect()
         }
     })
@@ -1291,6 +1310,30 @@ mod tests {
             supply: None,
             current: None,
         }
+    }
+
+    #[test]
+    fn a_supply_the_family_cannot_have_is_refused_naming_the_sample() {
+        let mut raw = data(vec![0.0; 4]);
+        raw.origin = "run.csv".into();
+        raw.supply = Some(vec![50_000.0, 60_000.0, 120_000.0, 50_000.0]);
+        let pneumatic = PlantSpec::new(Family::Pneumatic);
+        let err = supply_ratio(&pneumatic, &raw)
+            .expect_err("a gauge pressure")
+            .to_string();
+        assert!(
+            err.contains("run.csv") && err.contains("sample 3") && err.contains("120000"),
+            "{err}"
+        );
+        raw.supply = Some(vec![24.0, 24.0, 24.0, -1.0]);
+        let axis = PlantSpec::new(Family::LinearAxis);
+        let err = supply_ratio(&axis, &raw)
+            .expect_err("a negative voltage")
+            .to_string();
+        assert!(err.contains("sample 4"), "{err}");
+        raw.supply = Some(vec![12.0, 24.0, 24.0, 36.0]);
+        let r = supply_ratio(&axis, &raw).expect("a board net's swing");
+        assert_eq!(r, vec![0.5, 1.0, 1.0, 1.5]);
     }
 
     #[test]
