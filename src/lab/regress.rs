@@ -192,7 +192,7 @@ pub(super) fn supply_ratio(spec: &PlantSpec, raw: &Dataset) -> anyhow::Result<Ve
             let nom = p(spec, "pneumatic.supply_pressure_pa")?;
             // The drive's supply is a low pressure, absolute: a value at or above the atmosphere
             // is a gauge pressure or another column, and would give no drive at all.
-            if let Some((k, x)) = s.iter().enumerate().find(|(_, &x)| !(x < atm)) {
+            if let Some((k, x)) = s.iter().enumerate().find(|(_, &x)| x >= atm || x.is_nan()) {
                 anyhow::bail!(
                     "{}: supply at sample {} (t = {} s) is {x} Pa, not below the atmosphere ({atm} \
                      Pa): the pneumatic supply is the absolute low pressure in Pa",
@@ -205,7 +205,7 @@ pub(super) fn supply_ratio(spec: &PlantSpec, raw: &Dataset) -> anyhow::Result<Ve
         }
         (Some(s), _) => {
             let nom = p(spec, &format!("{fam}.supply_voltage_v"))?;
-            if let Some((k, x)) = s.iter().enumerate().find(|(_, &x)| !(x >= 0.0)) {
+            if let Some((k, x)) = s.iter().enumerate().find(|(_, &x)| x < 0.0 || x.is_nan()) {
                 anyhow::bail!(
                     "{}: supply at sample {} (t = {} s) is {x} V: a supply voltage is >= 0",
                     raw.origin,
