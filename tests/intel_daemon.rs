@@ -538,3 +538,39 @@ fn a_friction_rise_in_the_long_tour_is_still_caught() {
         "{d:?}"
     );
 }
+
+#[test]
+fn a_supply_back_in_its_band_is_announced_while_a_finding_stays_latched() {
+    let mut c = config("solenoid.toml", "");
+    demo_setpoints(&mut c);
+    // The observer's friction finding latches (maintenance requested), then the supply dips to
+    // 70 % (outside the scheduled band, inside the hard band) and comes back.
+    let mut rig = Rig::new(
+        &c,
+        "solenoid.toml",
+        &[
+            "friction_x3@5s",
+            "supply_x0.7@9.6s",
+            "supply_x1.4285714285714286@10.5s",
+        ],
+    );
+    rig.run_until(9.5);
+    assert!(rig
+        .last_diagnosis()
+        .latched
+        .contains(SupervisedFault::ObserverFriction));
+    rig.run_until(11.0);
+    let after: Vec<Emcy> = rig
+        .emcys()
+        .into_iter()
+        .filter(|(k, _)| *k as f64 * rig.period_s > 9.5)
+        .map(|(_, e)| e)
+        .collect();
+    let codes: Vec<u16> = after.iter().map(|e| e.error_code).collect();
+    assert_eq!(codes, vec![0x3120, 0x0000], "{after:?}");
+    // The reset names what remains: the finding, in the register and the supervised bits.
+    let reset = after[1];
+    assert_eq!(reset.error_register, 0x81, "{reset:?}");
+    assert!(reset.supervised.contains(SupervisedFault::ObserverFriction));
+    assert_eq!(reset.state, FaultState::MaintenanceRequested);
+}

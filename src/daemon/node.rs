@@ -716,13 +716,17 @@ impl ControllerNode {
             if step.supply_band != slot.last_supply_band {
                 slot.last_supply_band = step.supply_band;
                 match step.supply_band {
-                    // Back inside: "error reset" when nothing else is active.
+                    // Back inside: "error reset", with what is still active in the error
+                    // register (CiA 301) when something else is.
                     BandStatus::Inside => {
-                        if step.supervision.latched.is_empty()
-                            && step.model.machine.latched.is_empty()
-                        {
-                            send(&Emcy::reset(node).encode(self.node_id));
-                        }
+                        let (limits, model) =
+                            (step.supervision.latched, step.model.machine.latched);
+                        let emcy = if limits.is_empty() && model.is_empty() {
+                            Emcy::reset(node)
+                        } else {
+                            step.emcy(Emcy::reset_leaving(node, limits, !model.is_empty()))
+                        };
+                        send(&emcy.encode(self.node_id));
                     }
                     // A supply past the hard band has its own EMCY and the safe state.
                     _ if step.supervision.latched.contains(FaultKind::SupplyVoltage)

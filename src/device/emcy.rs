@@ -137,6 +137,19 @@ impl Emcy {
         self
     }
 
+    /// The EMCY "error reset" for one cause gone while others remain (CiA 301: the remaining
+    /// errors stay in the error register): `flags` are the limit faults still active,
+    /// `supervised` whether a model-based finding is still latched.
+    pub fn reset_leaving(axis_node_id: u8, flags: FaultFlags, supervised: bool) -> Self {
+        Self {
+            error_code: ERROR_RESET,
+            error_register: error_register(flags) | if supervised { 0x81 } else { 0 },
+            axis_node_id,
+            flags,
+            ..Default::default()
+        }
+    }
+
     /// The EMCY announcing that an axis' faults were reset.
     pub fn reset(axis_node_id: u8) -> Self {
         Self {
