@@ -159,17 +159,32 @@ pub fn tune_pneumatic(
         schedule.drive_gain_up_m_per_s.clone(),
     ];
     let kappa = fitted.get("supply_gain.exponent");
+    // The up valve's law, `κ + Δκ` (Isermann & Raab's K_I2(P_L)); 0 for one law for both.
+    let shift = fitted.get("supply_gain.exponent_pos_shift").unwrap_or(0.0);
     let (law, supply_law): (SupplyLaw, String) = match kappa {
-        // K_I ∝ (P_atm - P_L)^κ, the model's supply law through the fitted gain at its supply.
+        // K_I ∝ (P_atm - P_L)^κ per valve, the model's supply law through the fitted gain at its
+        // supply.
         Some(k) => (
-            Box::new(move |i, p: f64| Some(gain[i] * ((p_atm - p) / (p_atm - p_model)).powf(k))),
+            Box::new(move |i, p: f64| {
+                let exponent = if i == 1 { k + shift } else { k };
+                Some(gain[i] * ((p_atm - p) / (p_atm - p_model)).powf(exponent))
+            }),
             format!(
-                "K_I = K_I(fit) ((P_atm - P_L) / (P_atm - {p_model:.0} Pa))^{k:.3}, the model's \
-                 supply_gain.exponent ({})",
+                "K_I = K_I(fit) ((P_atm - P_L) / (P_atm - {p_model:.0} Pa))^κ, the model's \
+                 supply_gain.exponent ({}){}",
                 if fitted.intervals.contains_key("supply_gain.exponent") {
                     "fitted"
                 } else {
                     "declared in the model, not fitted"
+                },
+                if shift == 0.0 {
+                    format!(", κ = {k:.3} for both valves")
+                } else {
+                    format!(
+                        ", κ = {k:.3} for the down valve (K_I1) and {:.3} for the up valve \
+                         (K_I2, exponent_pos_shift {shift:+.3})",
+                        k + shift
+                    )
                 }
             ),
         ),
@@ -453,5 +468,37 @@ mod tests {
         close(&s.drive_gain_up_m_per_s, [0.0375, 0.022, 0.009]);
         // The same drive keeps the same effort weight.
         assert_eq!(s.effort_weight_m2, Some(2.2e-7));
+    }
+
+    /// A model with a law per valve: the down valve's column follows κ, the up valve's κ + Δκ
+    /// (here flat over the supply).
+    #[test]
+    fn each_valve_column_follows_its_own_law() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let plant =
+            std::fs::read_to_string(root.join("config/plants/pneumatic.toml")).expect("plant file");
+        let plant = plant.replace(
+            "exponent = 1.35",
+            "exponent = 1.35\nexponent_pos_shift = -1.35",
+        );
+        assert!(
+            plant.contains("exponent_pos_shift"),
+            "the plant file names its exponent"
+        );
+        let model = format!(
+            "# pneumatic.gain_down_m_per_s = 3.0e-2, 95 % interval [2.9e-2, 3.1e-2]\n\
+             # pneumatic.gain_up_m_per_s = 2.2e-2, 95 % interval [2.1e-2, 2.3e-2]\n\
+             command = \"duty\"\n{plant}"
+        );
+        let fitted = Fitted::from_text(&model, "per_valve.toml").expect("model");
+        let path = root.join("config/pneumatic.toml");
+        let text = std::fs::read_to_string(&path).expect("configuration");
+        let t = tune_pneumatic(&fitted, &text, &path, &TuneOptions::default()).expect("tuned");
+        let config = Config::from_toml(&t.text, &path).expect("valid");
+        let s = config.axis[0].schedule.as_ref().expect("schedule");
+        let down = s.drive_gain_down_m_per_s.as_deref().expect("column");
+        let up = s.drive_gain_up_m_per_s.as_deref().expect("column");
+        assert!((down[0] - 0.0511).abs() <= 0.5e-4, "{down:?}");
+        assert!(up.iter().all(|k| (k - 0.022).abs() <= 0.5e-4), "{up:?}");
     }
 }
