@@ -113,6 +113,29 @@ impl ParamSpec {
         }
     }
 
+    /// The declaration with the field's own documentation comment, where it has one.
+    pub const fn described(self, details: &'static str) -> Self {
+        if details.is_empty() {
+            self
+        } else {
+            ParamSpec { details, ..self }
+        }
+    }
+
+    /// The declaration of key `name` among `params`: a key one section lends another
+    /// (`from:` in [`declare_section!`](crate::declare_section)). Evaluated when the borrowing
+    /// section is built, so a key the lender does not declare fails the build.
+    pub const fn lent(params: &'static [ParamSpec], name: &str) -> Self {
+        let mut i = 0;
+        while i < params.len() {
+            if same(params[i].name, name) {
+                return params[i];
+            }
+            i += 1;
+        }
+        panic!("a section lends only the keys it declares");
+    }
+
     /// Which point of the array `name` is, if it is one of this key's points.
     pub fn point(&self, name: &str) -> Option<usize> {
         self.points.iter().position(|p| *p == name)
@@ -146,6 +169,22 @@ impl ParamSpec {
         }
         Ok(())
     }
+}
+
+/// `a == b`, in a constant.
+const fn same(a: &str, b: &str) -> bool {
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        if a[i] != b[i] {
+            return false;
+        }
+        i += 1;
+    }
+    true
 }
 
 /// The value types a declared section may hold.
@@ -441,6 +480,12 @@ pub const FORCE_PER_COMMAND_UNIT: &str = "N/command";
 /// [`ParamSpec::details`](crate::param::ParamSpec::details)) for the
 /// configuration reference; besides them the section takes only `#[derive(...)]` attributes.
 ///
+/// A key may be lent by another declared section, `safe_command: f64 = { from: AxisKeys }`:
+/// its whole declaration (unit, range, access, documentation, default) is `AxisKeys`'s, which
+/// declares it in a lower layer that needs it (the device profile, for the key's dictionary
+/// entry). The field's type must be the lender's, and the lender gives each of its keys a
+/// default or makes it optional (a lent key left out takes `AxisKeys::defaults()`'s value).
+///
 /// ```ignore
 /// declare_section! {
 ///     /// `[axis.example]`.
@@ -461,18 +506,21 @@ macro_rules! declare_section {
             $(
                 $(#[doc = $fdoc:literal])*
                 $field:ident : $ty:ty = {
-                    unit: $unit:expr,
-                    $(min: $min:expr,)?
-                    $(max: $max:expr,)?
-                    access: $access:ident,
-                    doc: $doc:literal
-                    $(, words: $words:literal)?
-                    $(, points: [$($point:ident),* $(,)?])?
-                    $(, kept: $kept:expr)?
-                    $(, command_bound: $command_bound:expr)?
-                    $(, nonzero: $nonzero:expr)?
-                    $(, absent: $absent:expr)?
-                    $(, default: $default:expr)? $(,)?
+                    $(from: $from:ident $(,)?)?
+                    $(
+                        unit: $unit:expr,
+                        $(min: $min:expr,)?
+                        $(max: $max:expr,)?
+                        access: $access:ident,
+                        doc: $doc:literal
+                        $(, words: $words:literal)?
+                        $(, points: [$($point:ident),* $(,)?])?
+                        $(, kept: $kept:expr)?
+                        $(, command_bound: $command_bound:expr)?
+                        $(, nonzero: $nonzero:expr)?
+                        $(, absent: $absent:expr)?
+                        $(, default: $default:expr)? $(,)?
+                    )?
                 }
             ),* $(,)?
         }
@@ -513,7 +561,10 @@ macro_rules! declare_section {
                             $(
                                 $field: match keys.$field {
                                     Some(v) => v,
-                                    None => $crate::__declared_default!($field, $ty $(, $default)?),
+                                    None => $crate::__declared_pick!(
+                                        [$( $crate::__declared_default!($field, $ty $(, $default)?) )?]
+                                        [$( $crate::__declared_lent_default!($field, $from) )?]
+                                    ),
                                 },
                             )*
                         })
@@ -533,7 +584,12 @@ macro_rules! declare_section {
             #[allow(dead_code)]
             pub fn defaults() -> Option<Self> {
                 Some($name {
-                    $( $field: $crate::__declared_fallback!($ty $(, $default)?)?, )*
+                    $(
+                        $field: $crate::__declared_pick!(
+                            [$( $crate::__declared_fallback!($ty $(, $default)?) )?]
+                            [$( $from::defaults().map(|lent| lent.$field) )?]
+                        )?,
+                    )*
                 })
             }
         }
@@ -543,31 +599,50 @@ macro_rules! declare_section {
 
             const PARAMS: &'static [$crate::param::ParamSpec] = &[
                 $(
-                    $crate::param::ParamSpec {
-                        name: stringify!($field),
-                        unit: $unit,
-                        kind: <$ty as $crate::param::ParamValue>::KIND,
-                        bits: <$ty as $crate::param::ParamValue>::BITS,
-                        optional: <$ty as $crate::param::ParamValue>::OPTIONAL,
-                        min: $crate::__declared_or!(f64::NEG_INFINITY $(, $min)?),
-                        max: $crate::__declared_or!(f64::INFINITY $(, $max)?),
-                        doc: $doc,
-                        details: concat!("" $(, $fdoc, "\n")*),
-                        access: $crate::param::Access::$access,
-                        absent: $crate::__declared_or!(None $(, Some($absent))?),
-                        words: $crate::__declared_or!("" $(, $words)?),
-                        points: $crate::__declared_or!(&[] $(, &[$(stringify!($point)),*])?),
-                        kept: $crate::__declared_or!(0 $(, $kept)?),
-                        command_bound: $crate::__declared_or!(false $(, $command_bound)?),
-                        choices: <$ty as $crate::param::ParamValue>::CHOICES,
-                        nonzero: $crate::__declared_or!(false $(, $nonzero)?),
-                    },
+                    $crate::param::ParamSpec::described($crate::__declared_pick!(
+                        [$(
+                            $crate::param::ParamSpec {
+                                name: stringify!($field),
+                                unit: $unit,
+                                kind: <$ty as $crate::param::ParamValue>::KIND,
+                                bits: <$ty as $crate::param::ParamValue>::BITS,
+                                optional: <$ty as $crate::param::ParamValue>::OPTIONAL,
+                                min: $crate::__declared_or!(f64::NEG_INFINITY $(, $min)?),
+                                max: $crate::__declared_or!(f64::INFINITY $(, $max)?),
+                                doc: $doc,
+                                details: "",
+                                access: $crate::param::Access::$access,
+                                absent: $crate::__declared_or!(None $(, Some($absent))?),
+                                words: $crate::__declared_or!("" $(, $words)?),
+                                points: $crate::__declared_or!(&[] $(, &[$(stringify!($point)),*])?),
+                                kept: $crate::__declared_or!(0 $(, $kept)?),
+                                command_bound: $crate::__declared_or!(false $(, $command_bound)?),
+                                choices: <$ty as $crate::param::ParamValue>::CHOICES,
+                                nonzero: $crate::__declared_or!(false $(, $nonzero)?),
+                            }
+                        )?]
+                        [$(
+                            $crate::param::ParamSpec::lent(
+                                <$from as $crate::param::Declared>::PARAMS,
+                                stringify!($field),
+                            )
+                        )?]
+                    ), concat!("" $(, $fdoc, "\n")*)),
                 )*
             ];
 
             fn default_text(name: &str) -> Option<String> {
                 match name {
-                    $( stringify!($field) => $crate::__declared_default_text!($ty $(, $default)?), )*
+                    $(
+                        stringify!($field) => $crate::__declared_pick!(
+                            [$( $crate::__declared_default_text!($ty $(, $default)?) )?]
+                            [$(
+                                <$from as $crate::param::Declared>::default_text(
+                                    stringify!($field),
+                                )
+                            )?]
+                        ),
+                    )*
                     _ => None,
                 }
             }
@@ -706,6 +781,33 @@ macro_rules! __declared_default_text {
         let value: $ty = $default;
         Some($crate::param::ParamValue::text(&value).unwrap_or_default())
     }};
+}
+
+/// The value of a lent key the configuration leaves out: the lending section's default for it,
+/// or the error that names it as missing. Used by [`declare_section!`] inside
+/// `Deserialize::deserialize`.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __declared_lent_default {
+    ($field:ident, $from:ident) => {
+        match $from::defaults() {
+            Some(lent) => lent.$field,
+            None => return Err(serde::de::Error::missing_field(stringify!($field))),
+        }
+    };
+}
+
+/// The tokens of whichever of a key's two forms was given: declared here, or lent (`from:`).
+/// Used by [`declare_section!`].
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __declared_pick {
+    ([$($declared:tt)+] []) => {
+        $($declared)+
+    };
+    ([] [$($lent:tt)+]) => {
+        $($lent)+
+    };
 }
 
 /// The given expression, or the fallback. Used by [`declare_section!`] for open bounds.
