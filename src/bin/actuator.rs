@@ -576,8 +576,15 @@ fn run(args: Args) -> anyhow::Result<()> {
                 println!(
                     "wrote {p}: the fitted plant; `actuator design robust --plant {p} --out \
                      controller.toml` designs the H-infinity controller on it, and \
-                     [axis.controller] state_space_file = \"controller.toml\" runs it",
-                    p = path.display()
+                     [{axis}.{controller}] {file} = \"controller.toml\" runs it",
+                    p = path.display(),
+                    axis = actuatord::param_key!(Config, axis),
+                    controller =
+                        actuatord::param_key!(actuatord::daemon::config::AxisConfig, controller),
+                    file = actuatord::param_key!(
+                        actuatord::daemon::config::ControllerSection,
+                        state_space_file
+                    ),
                 );
             }
             Ok(())
