@@ -107,6 +107,25 @@ fn the_committed_eds_is_the_rendered_dictionary_and_python_canopen_loads_it() {
 }
 
 #[test]
+fn the_committed_configuration_reference_is_the_rendered_one() {
+    let out = Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .arg("config-doc")
+        .output()
+        .expect("actuator runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let committed = std::fs::read(root("docs/configuration.md")).expect("configuration.md");
+    assert!(
+        out.stdout == committed,
+        "docs/configuration.md is stale: run \
+         `cargo run --bin actuator -- config-doc > docs/configuration.md`"
+    );
+}
+
+#[test]
 fn decode_names_every_frame_of_a_candump_log_and_what_does_not_decode() {
     let dir = tempfile::tempdir().expect("tempdir");
     let log = dir.path().join("capture.log");

@@ -287,6 +287,57 @@ fn a_limit_left_out_is_an_infinite_bound_in_the_dictionary_and_back() {
     );
 }
 
+/// The axis' own writable keys are declared with the objects they are entries of, and
+/// `[[axis]]` borrows those declarations: the key, its entry and its SDO write agree.
+#[test]
+fn the_axis_own_entries_and_sdo_writes_are_the_declaration() {
+    use actuatord::device::objects::{AxisKeys, SetpointKeys};
+    let mut config = shipped();
+    let mut od = dictionary::build(&config).expect("dictionary");
+    for (offset, params) in [
+        (index::AXIS, AxisKeys::PARAMS),
+        (index::SETPOINT, SetpointKeys::PARAMS),
+    ] {
+        for p in params {
+            assert_eq!(
+                AxisConfig::spec(p.name),
+                Some(p),
+                "[[axis]] borrows {}",
+                p.name
+            );
+            let e = od.entry(entry_of(&od, offset, p.name).expect(p.name));
+            assert_eq!(e.description, p.doc, "{}", p.name);
+            assert_eq!(e.access, OdAccess::ReadWritePreOperational, "{}", p.name);
+        }
+    }
+    let safe = actuatord::param_key!(AxisConfig, safe_command);
+    let rate = actuatord::param_key!(AxisConfig, setpoint_rate_max_m_per_s);
+    let h = entry_of(&od, index::AXIS, safe).expect("entry");
+    assert_eq!(od.entry(h).unit, "V", "the command's unit");
+    assert_eq!(
+        od.entry(h).max,
+        Some(Value::Real64(1000.0)),
+        "the command's bound"
+    );
+    od.stage_value(h, Value::Real64(1.5), NmtState::PreOperational)
+        .expect("within range");
+    let h = entry_of(&od, index::SETPOINT, rate).expect("entry");
+    assert_eq!(od.value(h), Value::Real64(f64::INFINITY), "steps");
+    od.stage_value(h, Value::Real64(0.25), NmtState::PreOperational)
+        .expect("within range");
+    for w in od.take_pending_writes().collect::<Vec<_>>() {
+        dictionary::apply_write(&mut config, &w).expect("applies");
+    }
+    assert_eq!(config.axis[0].safe_command, 1.5);
+    assert_eq!(config.axis[0].setpoint_rate_max_m_per_s, Some(0.25));
+    od.stage_value(h, Value::Real64(f64::INFINITY), NmtState::PreOperational)
+        .expect("steps again");
+    for w in od.take_pending_writes().collect::<Vec<_>>() {
+        dictionary::apply_write(&mut config, &w).expect("applies");
+    }
+    assert_eq!(config.axis[0].setpoint_rate_max_m_per_s, None, "steps");
+}
+
 #[test]
 fn the_parameter_estimation_entries_and_sdo_writes_are_the_declaration() {
     entries_and_writes_follow::<ParameterEstimationSection>(

@@ -19,7 +19,7 @@
 use std::path::Path;
 
 use super::paper::{paper_faults, BenchError, SOLENOID_PLANT};
-use crate::daemon::config::{FaultReactionsSection, ReactionName, SetpointStep};
+use crate::daemon::config::{AxisConfig, FaultReactionsSection, ReactionName, SetpointStep};
 use crate::daemon::Config;
 use crate::lockstep::LockStep;
 use crate::physics::{Fault, FaultKind, ScheduledFault};
@@ -173,10 +173,13 @@ impl Simulation {
             .axis
             .first_mut()
             .ok_or_else(|| failed(&"config/solenoid.toml has no axis"))?;
-        let section = axis
-            .parameter_estimation
-            .take()
-            .ok_or_else(|| failed(&"config/solenoid.toml has no [axis.parameter_estimation]"))?;
+        let section = axis.parameter_estimation.take().ok_or_else(|| {
+            failed(&format!(
+                "config/solenoid.toml has no [{}.{}]",
+                crate::param_key!(Config, axis),
+                crate::param_key!(AxisConfig, parameter_estimation)
+            ))
+        })?;
         axis.fault_reactions = Some(FaultReactionsSection {
             limit_violation: Some(ReactionName::Warning),
             ..FaultReactionsSection::default()

@@ -7,9 +7,11 @@
 //! A benchmark, not a test: it prints figures (the README keeps them).
 
 use crate::bus::{Bus, BusEvent, Frame, SocketCanBus};
+use crate::daemon::config::{CycleConfig, LimitsSection};
 use crate::daemon::recorder::read_cycles;
 use crate::daemon::Config;
 use crate::device::Emcy;
+use crate::param_key;
 use serde::Serialize;
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -387,8 +389,9 @@ fn soak(
             }
             2 => {
                 // SIGHUP with a valid change, then with a file the daemon must refuse.
+                let limit = param_key!(LimitsSection, following_error_m);
                 let valid = if round % 10 == 2 {
-                    text.replace("following_error_m = 0.002", "following_error_m = 0.003")
+                    text.replace(&format!("{limit} = 0.002"), &format!("{limit} = 0.003"))
                 } else {
                     text.clone()
                 };
@@ -398,7 +401,10 @@ fn soak(
                 std::thread::sleep(Duration::from_millis(500));
                 std::fs::write(
                     &config_path,
-                    text.replace("period_s = 0.0025", "period_s = -1.0"),
+                    text.replace(
+                        &format!("{} = 0.0025", param_key!(CycleConfig, period_s)),
+                        &format!("{} = -1.0", param_key!(CycleConfig, period_s)),
+                    ),
                 )?;
                 daemon.signal(libc::SIGHUP);
                 report.sighup_invalid += 1;

@@ -177,6 +177,14 @@ enum Command {
         #[arg(long)]
         config: Option<PathBuf>,
     },
+    /// Print the configuration reference (docs/configuration.md): every declared key with its
+    /// unit, range, default and access, and the dictionary entries of the configuration's
+    /// first axis.
+    ConfigDoc {
+        /// Default: config/solenoid.toml, built in.
+        #[arg(long)]
+        config: Option<PathBuf>,
+    },
     /// Print the DBC of the protocol for the given node ids (dbc/actuatord.dbc is 1 and 16).
     Dbc {
         #[arg(long, default_value_t = 1)]
@@ -568,8 +576,15 @@ fn run(args: Args) -> anyhow::Result<()> {
                 println!(
                     "wrote {p}: the fitted plant; `actuator design robust --plant {p} --out \
                      controller.toml` designs the H-infinity controller on it, and \
-                     [axis.controller] state_space_file = \"controller.toml\" runs it",
-                    p = path.display()
+                     [{axis}.{controller}] {file} = \"controller.toml\" runs it",
+                    p = path.display(),
+                    axis = actuatord::param_key!(Config, axis),
+                    controller =
+                        actuatord::param_key!(actuatord::daemon::config::AxisConfig, controller),
+                    file = actuatord::param_key!(
+                        actuatord::daemon::config::ControllerSection,
+                        state_space_file
+                    ),
                 );
             }
             Ok(())
@@ -592,6 +607,15 @@ fn run(args: Args) -> anyhow::Result<()> {
             print!(
                 "{}",
                 actuatord::canopen::render_eds(&od, &actuatord::canopen::EdsInfo::default())
+            );
+            Ok(())
+        }
+        Command::ConfigDoc { config } => {
+            let source = Source::or_builtin(config, defaults::config(Family::Solenoid));
+            let c = source.config()?;
+            print!(
+                "{}",
+                actuatord::daemon::config_reference::render(&c, &format!("`{}`", source.name()))?
             );
             Ok(())
         }

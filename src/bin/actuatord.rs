@@ -2,6 +2,7 @@
 
 use actuatord::bus::BusError;
 use actuatord::bus::SocketCanBus;
+use actuatord::daemon::config::BusConfig;
 use actuatord::daemon::node::NodeCounters;
 use actuatord::daemon::notify::{watchdog_interval, Notifier};
 use actuatord::daemon::reconfigure::Builder;
@@ -143,16 +144,18 @@ fn open_bus(config: &Config, stop: &AtomicBool) -> anyhow::Result<SocketCanBus> 
         let waited = start.elapsed();
         if waited >= wait || stop.load(Ordering::Relaxed) {
             anyhow::bail!(
-                "{reason}; gave up after waiting {:.1} s ([bus] startup_wait_s = {})",
+                "{reason}; gave up after waiting {:.1} s ({} = {})",
                 waited.as_secs_f64(),
+                startup_wait_key(),
                 config.bus.startup_wait_s
             );
         }
         if last_log.is_none_or(|t| t.elapsed() >= std::time::Duration::from_secs(5)) {
             tracing::warn!(
-                "{reason}; waiting for it ({:.0} of {} s, [bus] startup_wait_s)",
+                "{reason}; waiting for it ({:.0} of {} s, {})",
                 waited.as_secs_f64(),
-                config.bus.startup_wait_s
+                config.bus.startup_wait_s,
+                startup_wait_key()
             );
             last_log = Some(std::time::Instant::now());
         }
@@ -161,6 +164,15 @@ fn open_bus(config: &Config, stop: &AtomicBool) -> anyhow::Result<SocketCanBus> 
 }
 
 /// Whether `iface` exists and is administratively up (IFF_UP in its sysfs flags).
+/// `[bus] startup_wait_s`, as the messages about waiting for the interface name it.
+fn startup_wait_key() -> String {
+    format!(
+        "[{}] {}",
+        actuatord::param_key!(Config, bus),
+        actuatord::param_key!(BusConfig, startup_wait_s)
+    )
+}
+
 fn interface_up(iface: &str) -> Result<bool, BusError> {
     let flags = Path::new("/sys/class/net").join(iface).join("flags");
     let text = std::fs::read_to_string(&flags)
@@ -328,7 +340,9 @@ fn run(args: Args) -> anyhow::Result<()> {
     }
     anyhow::ensure!(
         args.iface.is_none() || args.config.len() == 1,
-        "--iface overrides the interface of one configuration; with several, set [bus] iface in each"
+        "--iface overrides the interface of one configuration; with several, set [{}] {} in each",
+        actuatord::param_key!(Config, bus),
+        actuatord::param_key!(BusConfig, iface)
     );
     let configs = args
         .config

@@ -90,7 +90,10 @@ impl AdaptiveFriction {
             if v > max {
                 return Err(ParamError::new(
                     name,
-                    format!("must be <= compensation_max {max}, got {v}"),
+                    format!(
+                        "must be <= {} {max}, got {v}",
+                        crate::param_key!(AdaptiveFrictionSection, compensation_max)
+                    ),
                 ));
             }
         }

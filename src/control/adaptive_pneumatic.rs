@@ -15,7 +15,9 @@ use super::direction_p::{DirectionalP, DirectionalPConfig};
 use super::integrator_design::integrator_lq_gain;
 use super::param_error::{positive, ParamError};
 use super::scheduling::{GainSchedule, SchedulePoint};
+use super::{PneumaticAdaptiveSection, ScheduleSection};
 use crate::ident::{Dsfi, DsfiConfig, RecursiveEstimator};
+use crate::param_key;
 use crate::supervise::{EstimatorHealth, EstimatorSupervisor, EstimatorSupervisorConfig};
 
 /// Configuration of [`PneumaticAdaptive`].
@@ -147,7 +149,7 @@ impl PneumaticAdaptive {
         }
         if !(config.effort_weight_m2 >= 0.0 && config.effort_weight_m2.is_finite()) {
             return Err(ParamError::new(
-                "effort_weight_m2",
+                param_key!(ScheduleSection, effort_weight_m2),
                 "must be finite and >= 0",
             ));
         }
@@ -158,7 +160,7 @@ impl PneumaticAdaptive {
             }
             Some(p) => {
                 return Err(ParamError::new(
-                    "nominal_supply_pa",
+                    param_key!(ScheduleSection, nominal_supply_pa),
                     format!("must be finite, got {p}"),
                 ))
             }
@@ -186,7 +188,12 @@ impl PneumaticAdaptive {
                     information_floor: Some(1e-3),
                 },
             )
-            .map_err(|e| ParamError::new("forgetting", e.to_string()))
+            .map_err(|e| {
+                ParamError::new(
+                    param_key!(PneumaticAdaptiveSection, forgetting),
+                    e.to_string(),
+                )
+            })
         };
         let sup = EstimatorSupervisor::new(&config.supervision)?;
         Ok(Self {

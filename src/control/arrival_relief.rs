@@ -26,6 +26,8 @@
 //! Allocation-free; the caller applies the relief to its controller.
 
 use super::param_error::{non_negative, positive, ParamError};
+use super::FrictionCompensationSection as Section;
+use crate::param_key;
 
 /// Configuration of [`ArrivalRelief`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -78,11 +80,18 @@ impl ArrivalRelief {
     /// Checks the period and lead time (> 0) and the gain, maximum and deadband (>= 0).
     pub fn new(config: ArrivalReliefConfig) -> Result<Self, ParamError> {
         positive("period_s", config.period_s)?;
-        positive("arrival_lead_s", config.lead_s)?;
-        positive("arrival_speed_max_m_per_s", config.speed_max_m_per_s)?;
-        non_negative("arrival_relief_gain_per_m_s", config.gain_per_m_s)?;
-        non_negative("arrival_relief_max", config.max)?;
-        non_negative("deadband_m", config.deadband_m)?;
+        // Named by the keys of `[axis.friction_compensation]` they come from.
+        positive(param_key!(Section, arrival_lead_s), config.lead_s)?;
+        positive(
+            param_key!(Section, arrival_speed_max_m_per_s),
+            config.speed_max_m_per_s,
+        )?;
+        non_negative(
+            param_key!(Section, arrival_relief_gain_per_m_s),
+            config.gain_per_m_s,
+        )?;
+        non_negative(param_key!(Section, arrival_relief_max), config.max)?;
+        non_negative(param_key!(Section, deadband_m), config.deadband_m)?;
         Ok(Self {
             config,
             levels: [0.0; 2],

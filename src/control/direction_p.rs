@@ -2,6 +2,8 @@
 //! `U1 = q01 e_w` for `e_w < 0` (valve V1, down), `U2 = q02 e_w` for `e_w > 0` (valve V2, up).
 
 use super::param_error::{non_negative, positive, range, ParamError};
+use super::ScheduleSection;
+use crate::param_key;
 
 /// Configuration of [`DirectionalP`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -28,7 +30,8 @@ impl DirectionalP {
     pub fn new(config: DirectionalPConfig) -> Result<Self, ParamError> {
         positive("gain_neg_per_m", config.gain_neg_per_m)?;
         positive("gain_pos_per_m", config.gain_pos_per_m)?;
-        non_negative("deadband_m", config.deadband_m)?;
+        // The deadband of a direction-P axis is `[axis.schedule]`'s.
+        non_negative(param_key!(ScheduleSection, deadband_m), config.deadband_m)?;
         range("output", config.output_min, config.output_max)?;
         Ok(Self { config })
     }

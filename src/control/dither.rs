@@ -12,6 +12,8 @@
 //! - *on target*: `|e_w| <= e_tol`: `A ← max(A - ρ_A T_0 / 4, A_min)`, the dither fades.
 
 use super::param_error::{non_negative, positive, range, ParamError};
+use super::DitherSection as Section;
+use crate::param_key;
 
 /// Configuration of [`Dither`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -60,30 +62,41 @@ impl Dither {
     pub fn new(config: DitherConfig) -> Result<Self, ParamError> {
         let c = &config;
         positive("period_s", c.period_s)?;
-        non_negative("amplitude", c.amplitude)?;
-        positive("frequency_hz", c.frequency_hz)?;
-        non_negative("amplitude_min", c.amplitude_min)?;
+        // Named by the keys of `[axis.dither]` they come from.
+        non_negative(param_key!(Section, amplitude), c.amplitude)?;
+        positive(param_key!(Section, frequency_hz), c.frequency_hz)?;
+        let amplitude_min = param_key!(Section, amplitude_min);
+        non_negative(amplitude_min, c.amplitude_min)?;
         if !(c.amplitude_max >= c.amplitude_min && c.amplitude_max.is_finite()) {
             return Err(ParamError::new(
-                "amplitude_max",
-                format!("must be >= amplitude_min, got {}", c.amplitude_max),
+                param_key!(Section, amplitude_max),
+                format!("must be >= {amplitude_min}, got {}", c.amplitude_max),
             ));
         }
-        positive("frequency_min_hz", c.frequency_min_hz)?;
+        positive(param_key!(Section, frequency_min_hz), c.frequency_min_hz)?;
         range("frequency", c.frequency_min_hz, c.frequency_max_hz + 1e-12)?;
         let nyquist = 0.5 / c.period_s;
         if c.frequency_max_hz > nyquist + 1e-9 || c.frequency_hz > nyquist + 1e-9 {
             return Err(ParamError::new(
-                "frequency_max_hz",
+                param_key!(Section, frequency_max_hz),
                 format!("must be <= 1/(2 T0) = {nyquist} Hz"),
             ));
         }
-        non_negative("amplitude_rate_per_s", c.amplitude_rate_per_s)?;
-        non_negative("frequency_rate_per_s", c.frequency_rate_per_s)?;
-        non_negative("error_tolerance_m", c.error_tolerance_m)?;
-        non_negative("ripple_moving_m", c.ripple_moving_m)?;
-        positive("ripple_max_m", c.ripple_max_m)?;
-        positive("ripple_time_constant_s", c.ripple_time_constant_s)?;
+        non_negative(
+            param_key!(Section, amplitude_rate_per_s),
+            c.amplitude_rate_per_s,
+        )?;
+        non_negative(
+            param_key!(Section, frequency_rate_per_s),
+            c.frequency_rate_per_s,
+        )?;
+        non_negative(param_key!(Section, error_tolerance_m), c.error_tolerance_m)?;
+        non_negative(param_key!(Section, ripple_moving_m), c.ripple_moving_m)?;
+        positive(param_key!(Section, ripple_max_m), c.ripple_max_m)?;
+        positive(
+            param_key!(Section, ripple_time_constant_s),
+            c.ripple_time_constant_s,
+        )?;
         Ok(Self {
             amplitude: c.amplitude,
             frequency_hz: c.frequency_hz,

@@ -12,6 +12,8 @@ use serde::{Deserialize, Serialize};
 
 use super::param_error::{finite, ParamError};
 use super::scheduling::MAX_SCHEDULED;
+use super::LearnedTableSection as Section;
+use crate::param_key;
 
 /// Version of [`LearnedTableState`]; a stored table of another version is refused.
 pub const LEARNED_TABLE_VERSION: u32 = 1;
@@ -97,7 +99,11 @@ fn band(edges: &[f64], x: f64) -> usize {
 impl LearnedTable {
     /// An empty table.
     pub fn new(config: LearnedTableConfig) -> Result<Self, ParamError> {
-        check_edges("position_edges_m", &config.position_edges_m)?;
+        // Named by the keys of `[axis.learned_table]` where they come from one.
+        check_edges(
+            param_key!(Section, position_edges_m),
+            &config.position_edges_m,
+        )?;
         check_edges("load_edges_n", &config.load_edges_n)?;
         check_edges("supply_edges", &config.supply_edges)?;
         let n = config.param_names.len();
@@ -108,7 +114,10 @@ impl LearnedTable {
             ));
         }
         if config.averaging_count == 0 {
-            return Err(ParamError::new("averaging_count", "must be >= 1"));
+            return Err(ParamError::new(
+                param_key!(Section, averaging_count),
+                "must be >= 1",
+            ));
         }
         let cells = (config.position_edges_m.len() - 1)
             * (config.load_edges_n.len() - 1)

@@ -8,6 +8,8 @@
 //! by the controller is the plant at the reference position, where the controller was designed.
 
 use super::param_error::{finite, positive, range, ParamError};
+use super::CorrectionSection as Section;
+use crate::param_key;
 
 /// Configuration of [`NonlinearCorrection`]; `c_i` with the same normalisation as the plant's
 /// `position_stiffness` effect (any common factor cancels).
@@ -37,21 +39,29 @@ pub struct NonlinearCorrection {
 impl NonlinearCorrection {
     /// Needs `g(Y_ref) > 0` and `0 < min_gain_ratio <= 1`.
     pub fn new(config: NonlinearCorrectionConfig) -> Result<Self, ParamError> {
-        finite("pole_m", config.pole_m)?;
-        finite("c0", config.c0)?;
-        finite("c1_per_m", config.c1_per_m)?;
-        finite("c2_per_m2", config.c2_per_m2)?;
-        finite("reference_position_m", config.reference_position_m)?;
-        positive("min_gain_ratio", config.min_gain_ratio)?;
+        // Named by the keys of `[axis.correction]` they come from.
+        finite(param_key!(Section, pole_m), config.pole_m)?;
+        finite(param_key!(Section, c0), config.c0)?;
+        finite(param_key!(Section, c1_per_m), config.c1_per_m)?;
+        finite(param_key!(Section, c2_per_m2), config.c2_per_m2)?;
+        let reference = param_key!(Section, reference_position_m);
+        finite(reference, config.reference_position_m)?;
+        let ratio = param_key!(Section, min_gain_ratio);
+        positive(ratio, config.min_gain_ratio)?;
         if config.min_gain_ratio > 1.0 {
             return Err(ParamError::new(
-                "min_gain_ratio",
+                ratio,
                 format!("must be <= 1, got {}", config.min_gain_ratio),
             ));
         }
         range("output", config.output_min, config.output_max)?;
         let g_ref = characteristic(&config, config.reference_position_m);
-        positive("characteristic at reference_position_m", g_ref)?;
+        if !(g_ref.is_finite() && g_ref > 0.0) {
+            return Err(ParamError::new(
+                reference,
+                format!("needs a characteristic there that is finite and > 0, got {g_ref}"),
+            ));
+        }
         Ok(Self { config, g_ref })
     }
 

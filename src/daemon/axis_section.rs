@@ -1,6 +1,8 @@
 //! `[[axis]]`, declared once: the axis' own keys (its name, its actuator node, what it
 //! commands, where it starts, its safe command) with their units, ranges and defaults, and the
-//! sections it is made of, each declared beside its algorithm. The rules between keys (the
+//! sections it is made of, each declared beside its algorithm. The two keys with a writable
+//! dictionary entry (the safe command, the setpoint's rate limit) are declared in the device
+//! profile, which makes their entries, and borrowed here. The rules between keys (the
 //! safe command within the output limits, the setpoints within the travel, a section needing
 //! another) are checked in [`Config::validate`](super::config::Config::validate).
 
@@ -14,15 +16,11 @@ use crate::control::{
 };
 use crate::declare_section;
 pub use crate::device::objects::CommandKind;
-use crate::param::{Kind, ParamError, ParamValue, COMMAND_UNIT};
+use crate::device::objects::{AxisKeys, SetpointKeys};
+use crate::param::{Kind, ParamError, ParamValue};
 use crate::supervise::{
     FaultReactionsSection, LimitsSection, ObserverSection, ParameterEstimationSection,
 };
-
-/// "> 0", finite.
-const POSITIVE: f64 = f64::MIN_POSITIVE;
-/// The largest finite value.
-const FINITE: f64 = f64::MAX;
 
 /// A section of the axis, checked by its own declaration (with its keys' prefix) where the axis
 /// is validated.
@@ -79,18 +77,8 @@ declare_section! {
         initial_setpoint_m: f64 = {
             unit: "m", access: Restart, doc: "setpoint before any arrives",
         },
-        /// Rate limit of the reference the loop tracks (m/s, rad/s on a rotary axis); absent:
-        /// steps.
-        setpoint_rate_max_m_per_s: Option<f64> = {
-            unit: "m/s", min: POSITIVE, max: FINITE, access: PreOperational,
-            doc: "rate limit of the reference the loop tracks", words: "> 0",
-        },
-        /// Command sent while a fault is latched (V or duty, as `command`); the spring-return
-        /// rest for a solenoid.
-        safe_command: f64 = {
-            unit: COMMAND_UNIT, access: PreOperational,
-            doc: "command while a fault is latched", default: 0.0,
-        },
+        setpoint_rate_max_m_per_s: Option<f64> = { from: SetpointKeys },
+        safe_command: f64 = { from: AxisKeys },
         controller: ControllerSection = { unit: "", access: Restart, doc: "" },
         friction_compensation: Option<FrictionCompensationSection> = {
             unit: "", access: Restart, doc: "",

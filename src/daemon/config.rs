@@ -42,6 +42,28 @@ macro_rules! node_key {
     };
 }
 
+/// A section of the axis as a rule names it, `[axis.section]`, checked as `axis_key!` is.
+macro_rules! axis_table {
+    ($section:ident) => {
+        format!(
+            "[{}.{}]",
+            param_key!(Config, axis),
+            param_key!(AxisConfig, $section)
+        )
+    };
+}
+
+/// What a rule needs of the axis' command, as the file writes it: `command = "duty"`,
+/// `command = "voltage" or "torque"`.
+fn command_of(kinds: &[CommandKind]) -> String {
+    let names: Vec<String> = kinds.iter().map(|k| format!("\"{}\"", k.name())).collect();
+    format!(
+        "{} = {}",
+        param_key!(AxisConfig, command),
+        names.join(" or ")
+    )
+}
+
 /// A configuration that cannot be used.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
@@ -225,11 +247,17 @@ impl Config {
             .check()
             .map_err(section(param_key!(Config, record)))?;
         if self.axis.is_empty() {
-            return Err(bad("[[axis]]", "needs at least one axis".into()));
+            return Err(bad(
+                &format!("[[{}]]", param_key!(Config, axis)),
+                "needs at least one axis".into(),
+            ));
         }
         let mut seen = vec![self.node.node_id];
         for (i, axis) in self.axis.iter().enumerate() {
-            let at = |key: &str| format!("[[axis]] #{} ({}) {key}", i + 1, axis.name);
+            let at = |key: &str| {
+                let axis_table = param_key!(Config, axis);
+                format!("[[{axis_table}]] #{} ({}) {key}", i + 1, axis.name)
+            };
             // The axis' own keys: the ranges declared with them.
             axis.check().map_err(|e| bad(&at(e.name), e.reason))?;
             if seen.contains(&axis.actuator_node_id) {
@@ -325,7 +353,10 @@ impl Config {
                         axis_key!(controller: ControllerSection, output_min),
                         param_key!(ControllerSection, output_max)
                     )),
-                    "must lie within [-1, 1] for command = \"duty\"".into(),
+                    format!(
+                        "must lie within [-1, 1] for {}",
+                        command_of(&[CommandKind::Duty])
+                    ),
                 ));
             }
             if let Some(f) = &axis.friction_compensation {
@@ -471,11 +502,12 @@ impl Config {
             return Err(bad(
                 &node_key!(bus: BusConfig, max_load),
                 format!(
-                    "is {:.0} %, but the configured traffic needs {:.0} kbit/s = {:.0} % of {} kbit/s: lower the rates or raise bitrate_bps",
+                    "is {:.0} %, but the configured traffic needs {:.0} kbit/s = {:.0} % of {} kbit/s: lower the rates or raise {}",
                     self.bus.max_load * 100.0,
                     load.bits_per_s / 1000.0,
                     load.load * 100.0,
-                    self.bus.bitrate_bps / 1000
+                    self.bus.bitrate_bps / 1000,
+                    param_key!(BusConfig, bitrate_bps)
                 ),
             ));
         }
@@ -689,8 +721,10 @@ impl AxisConfig {
             if self.adaptive_friction.is_none() {
                 return Err((
                     axis_key!(learned_table).to_string(),
-                    "stores the adapted friction compensation: it needs [axis.adaptive_friction]"
-                        .to_string(),
+                    format!(
+                        "stores the adapted friction compensation: it needs {}",
+                        axis_table!(adaptive_friction)
+                    ),
                 ));
             }
             // A drive's supply is its DC link voltage.
@@ -748,7 +782,11 @@ impl AxisConfig {
                 (Some(_), Some(_)) | (None, None) => {
                     return Err((
                         axis_key!(schedule).to_string(),
-                        "needs exactly one of supply_voltage_v and supply_pressure_pa".to_string(),
+                        format!(
+                            "needs exactly one of {} and {}",
+                            param_key!(ScheduleSection, supply_voltage_v),
+                            param_key!(ScheduleSection, supply_pressure_pa)
+                        ),
                     ))
                 }
                 _ => {}
@@ -756,29 +794,41 @@ impl AxisConfig {
             if s.schedules_drive_gains() == s.gain_factor.is_some() {
                 return Err((
                     axis_key!(schedule).to_string(),
-                    "needs either gain_factor or drive_gain_down_m_per_s and \
-                     drive_gain_up_m_per_s"
-                        .to_string(),
+                    format!(
+                        "needs either {} or {} and {}",
+                        param_key!(ScheduleSection, gain_factor),
+                        param_key!(ScheduleSection, drive_gain_down_m_per_s),
+                        param_key!(ScheduleSection, drive_gain_up_m_per_s)
+                    ),
                 ));
             }
             if s.schedules_drive_gains() {
                 if self.command != CommandKind::Duty {
                     return Err((
                         axis_key!(schedule: ScheduleSection, drive_gain_down_m_per_s),
-                        "schedules direction P gains, which need command = \"duty\"".to_string(),
+                        format!(
+                            "schedules direction P gains, which need {}",
+                            command_of(&[CommandKind::Duty])
+                        ),
                     ));
                 }
                 if s.variable().0 != ScheduleVariable::SupplyPressure {
                     return Err((
                         axis_key!(schedule: ScheduleSection, supply_voltage_v),
-                        "drive gains are scheduled on supply_pressure_pa".to_string(),
+                        format!(
+                            "drive gains are scheduled on {}",
+                            param_key!(ScheduleSection, supply_pressure_pa)
+                        ),
                     ));
                 }
             }
             if s.command_limit_factor.is_some() && s.schedules_drive_gains() {
                 return Err((
                     axis_key!(schedule: ScheduleSection, command_limit_factor),
-                    "goes with gain_factor, not with drive gains".to_string(),
+                    format!(
+                        "goes with {}, not with drive gains",
+                        param_key!(ScheduleSection, gain_factor)
+                    ),
                 ));
             }
             let points = self.gain_factor_points()?;
@@ -796,9 +846,12 @@ impl AxisConfig {
         {
             return Err((
                 axis_key!(pneumatic_adaptive).to_string(),
-                "needs [axis.schedule] with drive_gain_down_m_per_s and drive_gain_up_m_per_s \
-                 (its start and fallback)"
-                    .to_string(),
+                format!(
+                    "needs {} with {} and {} (its start and fallback)",
+                    axis_table!(schedule),
+                    param_key!(ScheduleSection, drive_gain_down_m_per_s),
+                    param_key!(ScheduleSection, drive_gain_up_m_per_s)
+                ),
             ));
         }
         if let Some(c) = self.pneumatic_config(period_s)? {
@@ -859,7 +912,10 @@ impl AxisConfig {
             if self.command != CommandKind::Voltage {
                 return Err((
                     axis_key!(parameter_estimation).to_string(),
-                    "models the solenoid drive, which needs command = \"voltage\"".to_string(),
+                    format!(
+                        "models the solenoid drive, which needs {}",
+                        command_of(&[CommandKind::Voltage])
+                    ),
                 ));
             }
         }
@@ -873,8 +929,10 @@ impl AxisConfig {
         {
             return Err((
                 axis_key!(observer).to_string(),
-                "models the drive force, which needs command = \"voltage\" or \"torque\""
-                    .to_string(),
+                format!(
+                    "models the drive force, which needs {}",
+                    command_of(&[CommandKind::Voltage, CommandKind::Torque])
+                ),
             ));
         }
         Ok(())

@@ -10,20 +10,24 @@ use crate::canopen::{ObjectDictionary, Value};
 use crate::device::objects::axis_intelligence::{
     self, symptom_bits, IntelligenceParameters, BAND_NAMES, ESTIMATE_NAMES, NOMINAL_NAMES,
 };
-use crate::device::objects::{daemon_dictionary, index, AxisParameters, DeviceParameters};
+use crate::device::objects::{
+    daemon_dictionary, index, AxisKeys, AxisParameters, DeviceParameters, SetpointKeys,
+};
 use crate::param::Declared;
-use crate::param_key;
 
 /// One entry per configuration value the dictionary carries.
 pub fn axis_parameters(a: &AxisConfig) -> AxisParameters {
-    let inf = f64::INFINITY;
     AxisParameters {
         name: a.name.clone(),
         actuator_node_id: a.actuator_node_id,
         command: a.command,
-        safe_command: a.safe_command,
+        keys: AxisKeys {
+            safe_command: a.safe_command,
+        },
         initial_setpoint_m: a.initial_setpoint_m,
-        setpoint_rate_max_m_per_s: a.setpoint_rate_max_m_per_s.unwrap_or(inf),
+        setpoint: SetpointKeys {
+            setpoint_rate_max_m_per_s: a.setpoint_rate_max_m_per_s,
+        },
         controller: a.controller.clone(),
         friction_compensation: a.friction_compensation.clone(),
         limits: a.limits.clone(),
@@ -119,14 +123,7 @@ pub fn apply_write(config: &mut Config, w: &PendingWrite) -> Result<WriteEffect,
         .axis
         .get_mut(axis)
         .ok_or_else(|| format!("{}: no axis {axis}", w.id))?;
-    let finite = |v: f64| v.is_finite().then_some(v);
-    let name = w.name;
-    // The entries named after the axis' own keys.
-    const SAFE_COMMAND: &str = param_key!(AxisConfig, safe_command);
-    const RATE_MAX: &str = param_key!(AxisConfig, setpoint_rate_max_m_per_s);
-    match name {
-        SAFE_COMMAND => a.safe_command = number,
-        RATE_MAX => a.setpoint_rate_max_m_per_s = finite(number),
+    match w.name {
         "enabled" => {
             if number == 0.0 {
                 a.friction_compensation = None;
@@ -153,6 +150,9 @@ fn apply_intelligence_write(
     let missing = || format!("{}: {name}: the section is not configured", w.id);
     let value = w.value.as_f64().unwrap_or(f64::NAN);
     let written = match index::split(w.id.index).map(|(_, offset)| offset) {
+        // The axis' own keys, declared with the objects they are entries of.
+        Some(index::AXIS) if AxisKeys::spec(name).is_some() => a.set(name, value),
+        Some(index::SETPOINT) if SetpointKeys::spec(name).is_some() => a.set(name, value),
         Some(index::CONTROLLER) => a.controller.set(name, value),
         Some(index::FRICTION_COMPENSATION) => friction(a).set(name, value),
         Some(index::LIMITS) => a.limits.set(name, value),

@@ -5,6 +5,7 @@ pub mod axis;
 pub mod axis_section;
 pub mod bus_load;
 pub mod config;
+pub mod config_reference;
 pub mod cycle;
 pub mod dictionary;
 pub mod learned;

@@ -181,7 +181,13 @@ impl StateFile {
             if let Some(t) = &a.learned_table {
                 LearnedTable::from_state(t).map_err(|e| StateError::Invalid {
                     file: file.to_path_buf(),
-                    key: format!("axis[{i}] ({}).learned_table.{}", a.name, e.name),
+                    key: format!(
+                        "{}[{i}] ({}).{}.{}",
+                        crate::param_key!(StateFile, axis),
+                        a.name,
+                        crate::param_key!(AxisState, learned_table),
+                        e.name
+                    ),
                     rule: e.reason,
                 })?;
             }
@@ -241,16 +247,19 @@ fn restore_axis(axis: &mut Axis, i: usize, s: &AxisState, file: &Path) -> String
         axis.name
     );
     if let Some(t) = &s.learned_table {
+        let key = format!(
+            "{}[{i}].{}",
+            crate::param_key!(StateFile, axis),
+            crate::param_key!(AxisState, learned_table)
+        );
         match LearnedTable::from_state(t) {
             Ok(table) if axis.restore_learned_table(&table) => {
                 line += &format!(" (learned table: {} cells)", table.populated_cells());
             }
             Ok(_) => {
-                line += &format!(
-                    "; axis[{i}].learned_table not taken: the axis has another grid or none"
-                );
+                line += &format!("; {key} not taken: the axis has another grid or none");
             }
-            Err(e) => line += &format!("; axis[{i}].learned_table.{}: {}", e.name, e.reason),
+            Err(e) => line += &format!("; {key}.{}: {}", e.name, e.reason),
         }
     }
     line

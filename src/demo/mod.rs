@@ -194,7 +194,7 @@ pub fn run_with(
             .first_mut()
             .ok_or_else(|| crate::daemon::config::ConfigError::Invalid {
                 file: config_path.to_path_buf(),
-                key: "[[axis]]".into(),
+                key: format!("[[{}]]", crate::param_key!(crate::daemon::Config, axis)),
                 rule: "needs at least one axis".into(),
             })?;
     axis.setpoints = script.setpoints.clone();

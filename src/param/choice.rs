@@ -79,6 +79,9 @@ macro_rules! declare_choice {
         impl $crate::param::ParamValue for $name {
             const KIND: $crate::param::Kind = $crate::param::Kind::Choice;
             const CHOICES: &'static [&'static str] = &[$(stringify!($value)),*];
+            fn text(&self) -> Option<String> {
+                Some(format!("\"{}\"", self.name()))
+            }
             fn each(
                 &self,
                 _f: &mut dyn FnMut(f64) -> Result<(), $crate::param::ParamError>,

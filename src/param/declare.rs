@@ -57,6 +57,9 @@ pub struct ParamSpec {
     pub max: f64,
     /// One line for the dictionary, the EDS and the documentation (may be empty).
     pub doc: &'static str,
+    /// The field's own documentation comment, one line of text per line of comment (may be
+    /// empty): the longer story the configuration reference tells beside `doc`.
+    pub details: &'static str,
     pub access: Access,
     /// For an optional key: the value the dictionary shows while it is left out (an infinite
     /// bound: "not watched"). A write of an infinite value leaves it out again, and a
@@ -83,7 +86,7 @@ pub struct ParamSpec {
 impl ParamSpec {
     /// What the declared range asks for, in words: "a number in [a, b]", "a finite number > 0",
     /// "a whole number >= 1"...
-    fn range_text(&self) -> String {
+    pub fn range_text(&self) -> String {
         if !self.words.is_empty() {
             return self.words.to_string();
         }
@@ -108,6 +111,29 @@ impl ParamSpec {
         } else {
             what
         }
+    }
+
+    /// The declaration with the field's own documentation comment, where it has one.
+    pub const fn described(self, details: &'static str) -> Self {
+        if details.is_empty() {
+            self
+        } else {
+            ParamSpec { details, ..self }
+        }
+    }
+
+    /// The declaration of key `name` among `params`: a key one section lends another
+    /// (`from:` in [`declare_section!`](crate::declare_section)). Evaluated when the borrowing
+    /// section is built, so a key the lender does not declare fails the build.
+    pub const fn lent(params: &'static [ParamSpec], name: &str) -> Self {
+        let mut i = 0;
+        while i < params.len() {
+            if same(params[i].name, name) {
+                return params[i];
+            }
+            i += 1;
+        }
+        panic!("a section lends only the keys it declares");
     }
 
     /// Which point of the array `name` is, if it is one of this key's points.
@@ -145,6 +171,22 @@ impl ParamSpec {
     }
 }
 
+/// `a == b`, in a constant.
+const fn same(a: &str, b: &str) -> bool {
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        if a[i] != b[i] {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
+
 /// The value types a declared section may hold.
 pub trait ParamValue: Sized {
     const KIND: Kind;
@@ -178,6 +220,11 @@ pub trait ParamValue: Sized {
     }
     /// The values a choice takes, as written in the file; empty (the default) for the rest.
     const CHOICES: &'static [&'static str] = &[];
+    /// The value as the file writes it (`0.0025`, `"safe_state"`, `[1.0, 2.0]`), for the
+    /// configuration reference; `None` (the default) for what has no one-line form (a table).
+    fn text(&self) -> Option<String> {
+        None
+    }
     /// Point `k` of an array, `None` past its end (and, the default, for what is not an array).
     fn point(&self, _k: usize) -> Option<f64> {
         None
@@ -192,6 +239,9 @@ pub trait ParamValue: Sized {
 
 impl ParamValue for f64 {
     const KIND: Kind = Kind::Real;
+    fn text(&self) -> Option<String> {
+        Some(real_text(*self))
+    }
     fn each(&self, f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
         f(*self)
     }
@@ -213,6 +263,9 @@ macro_rules! count_value {
         impl ParamValue for $t {
             const KIND: Kind = Kind::Count;
             const BITS: u8 = $bits;
+            fn text(&self) -> Option<String> {
+                Some(self.to_string())
+            }
             fn each(
                 &self,
                 f: &mut dyn FnMut(f64) -> Result<(), ParamError>,
@@ -243,6 +296,9 @@ count_value!(i32, 32);
 
 impl ParamValue for bool {
     const KIND: Kind = Kind::Flag;
+    fn text(&self) -> Option<String> {
+        Some(self.to_string())
+    }
     fn each(&self, _f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
         Ok(())
     }
@@ -260,6 +316,9 @@ impl ParamValue for bool {
 
 impl ParamValue for Vec<f64> {
     const KIND: Kind = Kind::Array;
+    fn text(&self) -> Option<String> {
+        Some(array_text(self))
+    }
     fn each(&self, f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
         self.iter().try_for_each(|v| f(*v))
     }
@@ -280,6 +339,9 @@ impl ParamValue for Vec<f64> {
 
 impl ParamValue for String {
     const KIND: Kind = Kind::Text;
+    fn text(&self) -> Option<String> {
+        Some(format!("{self:?}"))
+    }
     fn each(&self, _f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
         Ok(())
     }
@@ -287,6 +349,9 @@ impl ParamValue for String {
 
 impl ParamValue for std::path::PathBuf {
     const KIND: Kind = Kind::Path;
+    fn text(&self) -> Option<String> {
+        Some(format!("{:?}", self.display().to_string()))
+    }
     fn each(&self, _f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
         Ok(())
     }
@@ -298,6 +363,9 @@ impl<T: ParamValue> ParamValue for Option<T> {
     const BITS: u8 = T::BITS;
     const OPTIONAL: bool = true;
     const CHOICES: &'static [&'static str] = T::CHOICES;
+    fn text(&self) -> Option<String> {
+        self.as_ref().and_then(T::text)
+    }
     fn point(&self, k: usize) -> Option<f64> {
         self.as_ref().and_then(|v| v.point(k))
     }
@@ -332,15 +400,38 @@ impl<T: ParamValue> ParamValue for Option<T> {
 
 impl<const N: usize> ParamValue for [f64; N] {
     const KIND: Kind = Kind::Array;
+    fn text(&self) -> Option<String> {
+        Some(array_text(self))
+    }
     fn each(&self, f: &mut dyn FnMut(f64) -> Result<(), ParamError>) -> Result<(), ParamError> {
         self.iter().try_for_each(|v| f(*v))
     }
+}
+
+/// A real as TOML writes it: `Debug` keeps a decimal point or an exponent, so that it reads
+/// back as a float (`30.0`, where `Display` writes `30`), and writes `inf` for an infinite bound.
+fn real_text(x: f64) -> String {
+    format!("{x:?}")
+}
+
+/// An array as TOML writes it.
+fn array_text(values: &[f64]) -> String {
+    let items: Vec<String> = values.iter().map(|v| real_text(*v)).collect();
+    format!("[{}]", items.join(", "))
 }
 
 /// A section made by [`declare_section!`].
 pub trait Declared {
     /// Every parameter, in declaration order.
     const PARAMS: &'static [ParamSpec];
+
+    /// The section's own documentation comment, one line of text per line of comment.
+    const DOC: &'static str;
+
+    /// The default declared for `name` as the file would write it; `None` for a key without
+    /// one (required, or optional: left out means "not used"). A default with no one-line form
+    /// (a table) is an empty text.
+    fn default_text(name: &str) -> Option<String>;
 
     /// The value of the scalar parameter `name`.
     fn get(&self, name: &str) -> Option<f64>;
@@ -384,7 +475,16 @@ pub const FORCE_PER_COMMAND_UNIT: &str = "N/command";
 /// the value (a count's 0, a path); the side is then open. `words:` says in an error what the
 /// range asks for, where the wording derived from it ("a finite number > 0") would differ from
 /// the one a section's users already know ("> 0"). `nonzero: true` refuses zero within the
-/// range (a scale whose sign says the direction).
+/// range (a scale whose sign says the direction). The section's and the fields' documentation
+/// comments are kept as text too ([`Declared::DOC`](crate::param::Declared::DOC),
+/// [`ParamSpec::details`](crate::param::ParamSpec::details)) for the
+/// configuration reference; besides them the section takes only `#[derive(...)]` attributes.
+///
+/// A key may be lent by another declared section, `safe_command: f64 = { from: AxisKeys }`:
+/// its whole declaration (unit, range, access, documentation, default) is `AxisKeys`'s, which
+/// declares it in a lower layer that needs it (the device profile, for the key's dictionary
+/// entry). The field's type must be the lender's, and the lender gives each of its keys a
+/// default or makes it optional (a lent key left out takes `AxisKeys::defaults()`'s value).
 ///
 /// ```ignore
 /// declare_section! {
@@ -400,29 +500,34 @@ pub const FORCE_PER_COMMAND_UNIT: &str = "N/command";
 #[macro_export]
 macro_rules! declare_section {
     (
-        $(#[$meta:meta])*
+        $(#[doc = $sdoc:literal])*
+        $(#[derive($($derive:ident),* $(,)?)])*
         pub struct $name:ident {
             $(
                 $(#[doc = $fdoc:literal])*
                 $field:ident : $ty:ty = {
-                    unit: $unit:expr,
-                    $(min: $min:expr,)?
-                    $(max: $max:expr,)?
-                    access: $access:ident,
-                    doc: $doc:literal
-                    $(, words: $words:literal)?
-                    $(, points: [$($point:ident),* $(,)?])?
-                    $(, kept: $kept:expr)?
-                    $(, command_bound: $command_bound:expr)?
-                    $(, nonzero: $nonzero:expr)?
-                    $(, absent: $absent:expr)?
-                    $(, default: $default:expr)? $(,)?
+                    $(from: $from:ident $(,)?)?
+                    $(
+                        unit: $unit:expr,
+                        $(min: $min:expr,)?
+                        $(max: $max:expr,)?
+                        access: $access:ident,
+                        doc: $doc:literal
+                        $(, words: $words:literal)?
+                        $(, points: [$($point:ident),* $(,)?])?
+                        $(, kept: $kept:expr)?
+                        $(, command_bound: $command_bound:expr)?
+                        $(, nonzero: $nonzero:expr)?
+                        $(, absent: $absent:expr)?
+                        $(, default: $default:expr)? $(,)?
+                    )?
                 }
             ),* $(,)?
         }
     ) => {
-        $(#[$meta])*
+        $(#[doc = $sdoc])*
         #[derive(Debug, Clone, PartialEq)]
+        $(#[derive($($derive),*)])*
         pub struct $name {
             $( $(#[doc = $fdoc])* pub $field: $ty, )*
         }
@@ -456,7 +561,10 @@ macro_rules! declare_section {
                             $(
                                 $field: match keys.$field {
                                     Some(v) => v,
-                                    None => $crate::__declared_default!($field, $ty $(, $default)?),
+                                    None => $crate::__declared_pick!(
+                                        [$( $crate::__declared_default!($field, $ty $(, $default)?) )?]
+                                        [$( $crate::__declared_lent_default!($field, $from) )?]
+                                    ),
                                 },
                             )*
                         })
@@ -476,34 +584,68 @@ macro_rules! declare_section {
             #[allow(dead_code)]
             pub fn defaults() -> Option<Self> {
                 Some($name {
-                    $( $field: $crate::__declared_fallback!($ty $(, $default)?)?, )*
+                    $(
+                        $field: $crate::__declared_pick!(
+                            [$( $crate::__declared_fallback!($ty $(, $default)?) )?]
+                            [$( $from::defaults().map(|lent| lent.$field) )?]
+                        )?,
+                    )*
                 })
             }
         }
 
         impl $crate::param::Declared for $name {
+            const DOC: &'static str = concat!("" $(, $sdoc, "\n")*);
+
             const PARAMS: &'static [$crate::param::ParamSpec] = &[
                 $(
-                    $crate::param::ParamSpec {
-                        name: stringify!($field),
-                        unit: $unit,
-                        kind: <$ty as $crate::param::ParamValue>::KIND,
-                        bits: <$ty as $crate::param::ParamValue>::BITS,
-                        optional: <$ty as $crate::param::ParamValue>::OPTIONAL,
-                        min: $crate::__declared_or!(f64::NEG_INFINITY $(, $min)?),
-                        max: $crate::__declared_or!(f64::INFINITY $(, $max)?),
-                        doc: $doc,
-                        access: $crate::param::Access::$access,
-                        absent: $crate::__declared_or!(None $(, Some($absent))?),
-                        words: $crate::__declared_or!("" $(, $words)?),
-                        points: $crate::__declared_or!(&[] $(, &[$(stringify!($point)),*])?),
-                        kept: $crate::__declared_or!(0 $(, $kept)?),
-                        command_bound: $crate::__declared_or!(false $(, $command_bound)?),
-                        choices: <$ty as $crate::param::ParamValue>::CHOICES,
-                        nonzero: $crate::__declared_or!(false $(, $nonzero)?),
-                    },
+                    $crate::param::ParamSpec::described($crate::__declared_pick!(
+                        [$(
+                            $crate::param::ParamSpec {
+                                name: stringify!($field),
+                                unit: $unit,
+                                kind: <$ty as $crate::param::ParamValue>::KIND,
+                                bits: <$ty as $crate::param::ParamValue>::BITS,
+                                optional: <$ty as $crate::param::ParamValue>::OPTIONAL,
+                                min: $crate::__declared_or!(f64::NEG_INFINITY $(, $min)?),
+                                max: $crate::__declared_or!(f64::INFINITY $(, $max)?),
+                                doc: $doc,
+                                details: "",
+                                access: $crate::param::Access::$access,
+                                absent: $crate::__declared_or!(None $(, Some($absent))?),
+                                words: $crate::__declared_or!("" $(, $words)?),
+                                points: $crate::__declared_or!(&[] $(, &[$(stringify!($point)),*])?),
+                                kept: $crate::__declared_or!(0 $(, $kept)?),
+                                command_bound: $crate::__declared_or!(false $(, $command_bound)?),
+                                choices: <$ty as $crate::param::ParamValue>::CHOICES,
+                                nonzero: $crate::__declared_or!(false $(, $nonzero)?),
+                            }
+                        )?]
+                        [$(
+                            $crate::param::ParamSpec::lent(
+                                <$from as $crate::param::Declared>::PARAMS,
+                                stringify!($field),
+                            )
+                        )?]
+                    ), concat!("" $(, $fdoc, "\n")*)),
                 )*
             ];
+
+            fn default_text(name: &str) -> Option<String> {
+                match name {
+                    $(
+                        stringify!($field) => $crate::__declared_pick!(
+                            [$( $crate::__declared_default_text!($ty $(, $default)?) )?]
+                            [$(
+                                <$from as $crate::param::Declared>::default_text(
+                                    stringify!($field),
+                                )
+                            )?]
+                        ),
+                    )*
+                    _ => None,
+                }
+            }
 
             fn get(&self, name: &str) -> Option<f64> {
                 let value = match name {
@@ -624,6 +766,47 @@ macro_rules! __declared_fallback {
     };
     ($ty:ty, $default:expr) => {
         Some($default)
+    };
+}
+
+/// The text of a key's declared default, `None` without one. Used by [`declare_section!`] for
+/// `default_text()`.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __declared_default_text {
+    ($ty:ty) => {
+        None
+    };
+    ($ty:ty, $default:expr) => {{
+        let value: $ty = $default;
+        Some($crate::param::ParamValue::text(&value).unwrap_or_default())
+    }};
+}
+
+/// The value of a lent key the configuration leaves out: the lending section's default for it,
+/// or the error that names it as missing. Used by [`declare_section!`] inside
+/// `Deserialize::deserialize`.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __declared_lent_default {
+    ($field:ident, $from:ident) => {
+        match $from::defaults() {
+            Some(lent) => lent.$field,
+            None => return Err(serde::de::Error::missing_field(stringify!($field))),
+        }
+    };
+}
+
+/// The tokens of whichever of a key's two forms was given: declared here, or lent (`from:`).
+/// Used by [`declare_section!`].
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __declared_pick {
+    ([$($declared:tt)+] []) => {
+        $($declared)+
+    };
+    ([] [$($lent:tt)+]) => {
+        $($lent)+
     };
 }
 

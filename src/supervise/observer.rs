@@ -107,27 +107,41 @@ impl DisturbanceObserver {
     /// unobservable model.
     pub fn new(config: ObserverConfig) -> Result<Self, ParamError> {
         use crate::param::ParamError as E;
+        use crate::param_key;
+        use ObserverSection as S;
         let period_s = config.period_s;
         let p = &config.params;
         for (name, v) in [
             ("period_s", period_s),
-            ("mass_kg", p.mass_kg),
-            ("spring_n_per_m", p.spring_n_per_m),
-            ("force_constant_n_per_a", p.force_constant_n_per_a),
-            ("current_gain_a_per_v", p.current_gain_a_per_v),
-            ("current_time_constant_s", p.current_time_constant_s),
-            ("residual_max_m", p.residual_max_m),
-            ("smoothing_time_constant_s", p.smoothing_time_constant_s),
+            (param_key!(S, mass_kg), p.mass_kg),
+            (param_key!(S, spring_n_per_m), p.spring_n_per_m),
+            (
+                param_key!(S, force_constant_n_per_a),
+                p.force_constant_n_per_a,
+            ),
+            (param_key!(S, current_gain_a_per_v), p.current_gain_a_per_v),
+            (
+                param_key!(S, current_time_constant_s),
+                p.current_time_constant_s,
+            ),
+            (param_key!(S, residual_max_m), p.residual_max_m),
+            (
+                param_key!(S, smoothing_time_constant_s),
+                p.smoothing_time_constant_s,
+            ),
         ] {
             if !(v > 0.0 && v.is_finite()) {
                 return Err(E::new(name, format!("must be finite and > 0, got {v}")));
             }
         }
         if p.damping_n_s_per_m.is_nan() || p.damping_n_s_per_m < 0.0 {
-            return Err(E::new("damping_n_s_per_m", "must be >= 0"));
+            return Err(E::new(param_key!(S, damping_n_s_per_m), "must be >= 0"));
         }
         if p.poles.iter().any(|x| x.is_nan() || x.abs() >= 1.0) {
-            return Err(E::new("poles", "must lie inside the unit circle"));
+            return Err(E::new(
+                param_key!(S, poles),
+                "must lie inside the unit circle",
+            ));
         }
         let (a, b) = discretise(&config);
         let c = Vector4::new(1.0, 0.0, 0.0, 0.0).transpose();
@@ -144,7 +158,7 @@ impl DisturbanceObserver {
         }
         let h: Vector4<f64> = phi * o_inv * Vector4::new(0.0, 0.0, 0.0, 1.0);
         if h.iter().any(|v| !v.is_finite()) {
-            return Err(E::new("poles", "pole placement failed"));
+            return Err(E::new(param_key!(S, poles), "pole placement failed"));
         }
         // Samples after the start before anything is learned or compared (start-up transient).
         let warmup_samples = (config.params.warmup_s / period_s)

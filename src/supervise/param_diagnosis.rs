@@ -391,12 +391,16 @@ pub struct ParameterEstimator {
 
 impl ParameterEstimator {
     pub fn new(config: ParameterEstimatorConfig) -> Result<Self, ParamError> {
+        use crate::param_key;
+        // Named by the keys of `[axis.parameter_estimation]` they come from.
+        use super::ParameterEstimationSection as S;
+        let filter_omega = param_key!(S, filter_omega_rad_s);
         for (name, v) in [
             ("period_s", config.period_s),
-            ("filter_omega_rad_s", config.filter_omega_rad_s),
-            ("mass_kg", config.mass_kg),
+            (filter_omega, config.filter_omega_rad_s),
+            (param_key!(S, mass_kg), config.mass_kg),
             (
-                "nominal_current_time_constant_s",
+                param_key!(S, current_time_constant_s),
                 config.nominal_current_time_constant_s,
             ),
         ] {
@@ -409,7 +413,7 @@ impl ParameterEstimator {
         }
         let svf = |d| {
             StateVariableFilter::new(4, d, config.filter_omega_rad_s, config.period_s)
-                .map_err(|e| ParamError::new("filter_omega_rad_s", e.to_string()))
+                .map_err(|e| ParamError::new(filter_omega, e.to_string()))
         };
         let estimator = Dsfi::new(
             6,

@@ -22,6 +22,7 @@
 //! uses their defaults.
 
 use super::axis_intelligence::{declared_entries, intelligence_objects, IntelligenceParameters};
+use super::axis_keys::{AxisKeys, SetpointKeys};
 use crate::canopen::od::{
     BuildError, EntrySpec, ObjectDictionary, ObjectDictionaryBuilder, ObjectId, Value,
 };
@@ -181,10 +182,11 @@ pub struct AxisParameters {
     pub actuator_node_id: u8,
     /// What the axis commands: the unit of its command entries.
     pub command: CommandKind,
-    pub safe_command: f64,
+    /// The writable entries of the axis object, as declared.
+    pub keys: AxisKeys,
     pub initial_setpoint_m: f64,
-    /// Rate limit of the reference, m/s; infinite = steps.
-    pub setpoint_rate_max_m_per_s: f64,
+    /// The writable entries of the setpoint object, as declared.
+    pub setpoint: SetpointKeys,
     /// `[axis.controller]`: its coefficients and output limits, as declared.
     pub controller: ControllerSection,
     /// `[axis.friction_compensation]`, if configured: its entries, as declared.
@@ -200,9 +202,11 @@ impl Default for AxisParameters {
             name: "axis".into(),
             actuator_node_id: 16,
             command: CommandKind::Voltage,
-            safe_command: 0.0,
+            keys: AxisKeys::defaults()
+                .expect("every key of the axis object has a default or may be left out"),
             initial_setpoint_m: 0.0,
-            setpoint_rate_max_m_per_s: f64::INFINITY,
+            setpoint: SetpointKeys::defaults()
+                .expect("every key of the setpoint object has a default or may be left out"),
             controller: ControllerSection::unconfigured(-1.0, 1.0),
             friction_compensation: None,
             limits: LimitsSection::defaults()
@@ -211,9 +215,6 @@ impl Default for AxisParameters {
         }
     }
 }
-
-/// Smallest value of a quantity that must be > 0.
-const POSITIVE_MIN: f64 = 1e-9;
 
 const AXIS_NAMES: [&str; MAX_AXES] = [
     "axis0", "axis1", "axis2", "axis3", "axis4", "axis5", "axis6", "axis7", "axis8", "axis9",
@@ -373,13 +374,30 @@ fn axis_objects(
 ) -> Result<ObjectDictionaryBuilder, BuildError> {
     let at = |offset| index::axis(i, offset);
     let axis = Some(i);
-    let c = a.command.bound();
     let cu = a.command.unit();
     let name = Value::string(&a.name).ok_or_else(|| BuildError::BadEntry {
         id: ObjectId::new(at(index::AXIS), 1),
         name: "axis_name",
         problem: format!("{:?} is not printable ASCII of at most 64 bytes", a.name),
     })?;
+    // The entries of the axis itself that are not its keys: read-only, and named apart from
+    // the keys they show (`name`, `command`) or live (the setpoint).
+    let mut own = vec![
+        EntrySpec::ro("axis_name", name),
+        EntrySpec::ro("actuator_node_id", a.actuator_node_id),
+        EntrySpec::ro("command_kind", a.command.code())
+            .doc("0 voltage (V), 1 signed valve duty (-1..1), 2 torque (N m), 3 velocity (m/s)"),
+    ];
+    own.extend(declared_entries(&a.keys, a.command));
+    let mut setpoint = vec![EntrySpec::rw("setpoint_position", a.initial_setpoint_m)
+        .unit("m")
+        .between(
+            a.limits.position_min_m.unwrap_or(f64::NEG_INFINITY),
+            a.limits.position_max_m.unwrap_or(f64::INFINITY),
+        )
+        .pdo()
+        .doc("position setpoint, a setpoint frame overrides it")];
+    setpoint.extend(declared_entries(&a.setpoint, a.command));
     let controller = declared_entries(&a.controller, a.command);
     let limits = declared_entries(&a.limits, a.command);
     let learned = vec![
@@ -418,21 +436,7 @@ fn axis_objects(
     ));
     let b = intelligence_objects(b, i, at, &a.intelligence, a.command);
     Ok(b
-        .record(
-            at(index::AXIS),
-            format!("axis{i}"),
-            axis,
-            vec![
-                EntrySpec::ro("axis_name", name),
-                EntrySpec::ro("actuator_node_id", a.actuator_node_id),
-                EntrySpec::ro("command_kind", a.command.code())
-                    .doc("0 voltage (V), 1 signed valve duty (-1..1), 2 torque (N m), 3 velocity (m/s)"),
-                EntrySpec::rw_preop("safe_command", a.safe_command)
-                    .unit(cu)
-                    .between(-c, c)
-                    .doc("command while a fault is latched"),
-            ],
-        )
+        .record(at(index::AXIS), format!("axis{i}"), axis, own)
         .record(
             at(index::CONTROLLER),
             format!("axis{i}_controller"),
@@ -471,20 +475,7 @@ fn axis_objects(
             at(index::SETPOINT),
             format!("axis{i}_setpoint"),
             axis,
-            vec![
-                EntrySpec::rw("setpoint_position", a.initial_setpoint_m)
-                    .unit("m")
-                    .between(
-                        a.limits.position_min_m.unwrap_or(f64::NEG_INFINITY),
-                        a.limits.position_max_m.unwrap_or(f64::INFINITY),
-                    )
-                    .pdo()
-                    .doc("position setpoint, a setpoint frame overrides it"),
-                EntrySpec::rw_preop("setpoint_rate_max_m_per_s", a.setpoint_rate_max_m_per_s)
-                    .unit("m/s")
-                    .between(POSITIVE_MIN, f64::INFINITY)
-                    .doc("rate limit of the reference the loop tracks, inf = steps"),
-            ],
+            setpoint,
         )
         .record(
             at(index::FAULT),

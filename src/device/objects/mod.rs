@@ -2,8 +2,10 @@
 //! serves and one manufacturer block per axis, built with the stack's dictionary machinery.
 
 pub mod axis_intelligence;
+mod axis_keys;
 mod daemon_objects;
 
+pub use axis_keys::{AxisKeys, SetpointKeys};
 pub use daemon_objects::{
     consumer_heartbeat_entry, daemon_dictionary, index, AxisParameters, CommandKind,
     DeviceParameters, MAX_AXES,
