@@ -125,6 +125,21 @@ impl ParamDef {
         }
     }
 
+    /// The declaration of `base` among `defs` (a family's or an effect's `PARAMS`), for a
+    /// constant: code outside the physics that reads a plant parameter names it through this,
+    /// so a parameter renamed or dropped in its declaration fails the build instead of going
+    /// missing when a model is read.
+    pub const fn declared(defs: &'static [ParamDef], base: &str) -> ParamDef {
+        let mut i = 0;
+        while i < defs.len() {
+            if same(defs[i].base, base) {
+                return defs[i];
+            }
+            i += 1;
+        }
+        panic!("the table declares no parameter of that name");
+    }
+
     /// Full key in a plant file for a family, e.g. `coulomb_pos_n`.
     pub fn key(&self, family: Family, command: CommandUnit) -> String {
         let (suffix, _) = family.suffix_and_unit(self.quantity, command);
@@ -159,6 +174,22 @@ impl ParamDef {
         };
         Err(format!("{rule}, got {value}"))
     }
+}
+
+/// `a == b`, in a constant.
+const fn same(a: &str, b: &str) -> bool {
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        if a[i] != b[i] {
+            return false;
+        }
+        i += 1;
+    }
+    true
 }
 
 /// A parameter of a concrete model: its definition, key, value and whether the lab may fit it.

@@ -9,6 +9,7 @@ use std::path::Path;
 use super::design::{analyse, command_response, goal_poles, place, Analysis, Controller};
 use super::edit::{round_sig, Change, Editor, Kept};
 use super::fitted::Fitted;
+use super::keys::*;
 use super::plant::{
     corners, design_parameters, drive_damping, flexible, flexible_with_contact, AxisModel,
     Direction,
@@ -18,6 +19,7 @@ use crate::daemon::config::{
     FrictionCompensationSection, ObserverSection, ParameterEstimationSection, ScheduleSection,
 };
 use crate::param_key;
+use crate::physics::effects::Viscous;
 use crate::physics::Family;
 
 // The sections tune writes, named by the configuration's fields.
@@ -371,10 +373,11 @@ pub fn tune(
     // A viscous slope is judged against the whole damping the design sees: beside a motor's
     // back-EMF a loosely determined slope moves the loop little.
     let drive_d = drive_damping(family, &|n| fitted.get(n));
-    for name in design_parameters(family) {
+    for key in design_parameters(family) {
+        let name = &key.name(family);
         if let Some(spread) = fitted.relative_spread(name) {
             let v = fitted.get(name).unwrap_or(f64::NAN);
-            let (spread, of) = if name.starts_with("viscous.") && drive_d > 0.0 {
+            let (spread, of) = if key.of_effect::<Viscous>() && drive_d > 0.0 {
                 (
                     spread * v.abs() / (v.abs() + drive_d),
                     format!(
@@ -386,7 +389,7 @@ pub fn tune(
                 (spread, "of its value".to_string())
             };
             if spread > options.max_spread {
-                let (lo, hi) = fitted.intervals[*name];
+                let (lo, hi) = fitted.intervals[name];
                 anyhow::bail!(
                     "{origin}: {name} = {v:.4e} with the 95 % interval [{lo:.4e}, {hi:.4e}], ±{:.0} % \
                      {of}: too wide to design from (at most ±{:.0} %). Record more motion \
@@ -525,8 +528,11 @@ pub fn tune(
     }
 
     // Robustness over the corners of the fitted intervals.
-    let names = design_parameters(family);
-    let all = corners(fitted, names);
+    let names: Vec<String> = design_parameters(family)
+        .iter()
+        .map(|k| k.name(family))
+        .collect();
+    let all = corners(fitted, &names);
     let mut robustness = Robustness {
         corners: all.len(),
         parameters: all
@@ -633,10 +639,7 @@ pub fn tune(
     let k_mean = 0.5 * (model.gain[0] + model.gain[1]) * scale;
     // A Coulomb level the fit kept (collinear with the pretension or an offset on these data)
     // is not determined; the band F_C+ + F_C- is: split it evenly.
-    let (pos_n, neg_n) = match family {
-        Family::MotorGear => ("coulomb.coulomb_pos_nm", "coulomb.coulomb_neg_nm"),
-        _ => ("coulomb.coulomb_pos_n", "coulomb.coulomb_neg_n"),
-    };
+    let (pos_n, neg_n) = (&COULOMB_POS.name(family), &COULOMB_NEG.name(family));
     let split = fitted.intervals.contains_key(pos_n) != fitted.intervals.contains_key(neg_n);
     let coulomb = model
         .coulomb
@@ -670,7 +673,7 @@ pub fn tune(
                 FRICTION,
                 param_key!(FrictionCompensationSection, deadband_m),
                 0.5 * gap,
-                format!("half backlash.gap_rad of {origin}"),
+                format!("half {} of {origin}", BACKLASH_GAP.name(family)),
             ),
             None => ed.keep(
                 keys(
@@ -697,9 +700,8 @@ pub fn tune(
             ] {
                 let from = if split {
                     format!(
-                        "half the friction band coulomb.coulomb_pos_n + coulomb.coulomb_neg_n of \
-                         {origin} (the fit kept one level: the split between the directions is \
-                         not determined){}",
+                        "half the friction band {pos_n} + {neg_n} of {origin} (the fit kept one \
+                         level: the split between the directions is not determined){}",
                         scaled(family, scale)
                     )
                 } else {
@@ -713,7 +715,9 @@ pub fn tune(
                     param_key!(FrictionCompensationSection, force_gain_n_per_command),
                     k_mean,
                     format!(
-                        "solenoid.current_gain_a_per_v x solenoid.force_constant_n_per_a of {origin}"
+                        "{} x {} of {origin}",
+                        SOLENOID_CURRENT_GAIN.name(family),
+                        SOLENOID_FORCE_CONSTANT.name(family)
                     ),
                 ),
                 Family::MotorGear => ed.set_f64(
@@ -721,12 +725,20 @@ pub fn tune(
                     param_key!(FrictionCompensationSection, force_gain_n_per_command),
                     k_mean,
                     format!(
-                        "motor_gear.ratio x motor_gear.torque_constant_nm_per_a / \
-                         motor_gear.resistance_ohm of {origin} (N·m per V at the load)"
+                        "{} x {} / {} of {origin} (N·m per V at the load)",
+                        MOTOR_GEAR_RATIO.name(family),
+                        MOTOR_GEAR_TORQUE_CONSTANT.name(family),
+                        MOTOR_GEAR_RESISTANCE.name(family)
                     ),
                 ),
                 _ => ed.keep(
-                    keys(FRICTION, &[param_key!(FrictionCompensationSection, force_gain_n_per_command)]),
+                    keys(
+                        FRICTION,
+                        &[param_key!(
+                            FrictionCompensationSection,
+                            force_gain_n_per_command
+                        )],
+                    ),
                     "the lab's linear_axis balance takes the command as the force: the drive's \
                      newtons per volt are not in the data (the levels above are written with it)",
                 ),
@@ -806,45 +818,51 @@ pub fn tune(
                 format!("{name} of {origin} (declared in the model, not determined by the fit)")
             }
         };
-        let ki = fitted.get("solenoid.current_gain_a_per_v").unwrap_or(0.0);
-        let kmag = fitted.get("solenoid.force_constant_n_per_a").unwrap_or(0.0);
+        let name = |k: PlantKey| k.name(family);
+        let declared = |k: PlantKey| declared(&name(k));
+        let ki = fitted.get(&name(SOLENOID_CURRENT_GAIN)).unwrap_or(0.0);
+        let kmag = fitted.get(&name(SOLENOID_FORCE_CONSTANT)).unwrap_or(0.0);
         let ti = model.lag_s.unwrap_or(0.0);
         if a.observer.is_some() {
             ed.set_f64(
                 OBSERVER,
                 param_key!(ObserverSection, mass_kg),
                 model.mass,
-                declared("solenoid.mass_kg"),
+                declared(SOLENOID_MASS),
             );
             ed.set_f64(
                 OBSERVER,
                 param_key!(ObserverSection, damping_n_s_per_m),
                 0.5 * (model.damping[0] + model.damping[1]),
-                format!("mean of viscous.damping_pos/neg_n_s_per_m of {origin}"),
+                format!(
+                    "mean of {} and {} of {origin}",
+                    name(VISCOUS_POS),
+                    name(VISCOUS_NEG)
+                ),
             );
             ed.set_f64(
                 OBSERVER,
                 param_key!(ObserverSection, spring_n_per_m),
                 model.stiffness,
-                declared("spring.stiffness_n_per_m"),
+                declared(SPRING_STIFFNESS),
             );
             ed.set_f64(
                 OBSERVER,
                 param_key!(ObserverSection, force_constant_n_per_a),
                 kmag,
-                declared("solenoid.force_constant_n_per_a"),
+                declared(SOLENOID_FORCE_CONSTANT),
             );
             ed.set_f64(
                 OBSERVER,
                 param_key!(ObserverSection, current_gain_a_per_v),
                 ki,
-                declared("solenoid.current_gain_a_per_v"),
+                declared(SOLENOID_CURRENT_GAIN),
             );
             ed.set_f64(
                 OBSERVER,
                 param_key!(ObserverSection, current_time_constant_s),
                 ti,
-                declared("solenoid.current_time_constant_s"),
+                declared(SOLENOID_LAG),
             );
             ed.keep(
                 format!(
@@ -859,13 +877,13 @@ pub fn tune(
                 ESTIMATION,
                 param_key!(ParameterEstimationSection, mass_kg),
                 model.mass,
-                declared("solenoid.mass_kg"),
+                declared(SOLENOID_MASS),
             );
             ed.set_f64(
                 ESTIMATION,
                 param_key!(ParameterEstimationSection, current_time_constant_s),
                 ti,
-                declared("solenoid.current_time_constant_s"),
+                declared(SOLENOID_LAG),
             );
             // p = [T_I, D, ω0, K_P, F_C, F_0] of the model and its spread over the intervals.
             let nominal_of = |m: &AxisModel| -> [f64; 6] {
@@ -880,27 +898,23 @@ pub fn tune(
                 ]
             };
             let p = nominal_of(&model);
-            let needs: [&[&str]; 6] = [
-                &["solenoid.current_time_constant_s"],
-                &[
-                    "viscous.damping_pos_n_s_per_m",
-                    "spring.stiffness_n_per_m",
-                    "solenoid.mass_kg",
-                ],
-                &["spring.stiffness_n_per_m", "solenoid.mass_kg"],
-                &["spring.stiffness_n_per_m"],
-                &["coulomb.coulomb_pos_n", "coulomb.coulomb_neg_n"],
-                &["spring.pretension_n"],
+            let needs: [&[PlantKey]; 6] = [
+                &[SOLENOID_LAG],
+                &[VISCOUS_POS, SPRING_STIFFNESS, SOLENOID_MASS],
+                &[SPRING_STIFFNESS, SOLENOID_MASS],
+                &[SPRING_STIFFNESS],
+                &[COULOMB_POS, COULOMB_NEG],
+                &[SPRING_PRETENSION],
             ];
             let undetermined: Vec<&str> = crate::supervise::PHYSICAL_NAMES
                 .iter()
                 .zip(needs)
-                .filter(|(_, n)| n.iter().any(|n| !fitted.intervals.contains_key(*n)))
+                .filter(|(_, n)| n.iter().any(|k| !fitted.intervals.contains_key(&name(*k))))
                 .map(|(name, _)| *name)
                 .collect();
             // The spread of p over the corners of every interval the fit gave.
             let mut spread = [0.0_f64; 6];
-            let every: Vec<&str> = fitted.intervals.keys().map(String::as_str).collect();
+            let every: Vec<String> = fitted.intervals.keys().cloned().collect();
             for corner in corners(fitted, &every) {
                 let value = |n: &str| {
                     corner
@@ -987,7 +1001,7 @@ pub fn tune(
             s.supply_voltage_v.as_ref(),
             model.supply_exponent,
             model.supply_nominal,
-            fitted.intervals.contains_key("supply_gain.exponent"),
+            fitted.intervals.contains_key(&SUPPLY_EXPONENT.name(family)),
         ) {
             (Some(points), Some(kappa), Some(nominal), true) => {
                 let factors: Vec<f64> = points.iter().map(|u| (nominal / u).powf(kappa)).collect();

@@ -21,6 +21,7 @@ pub mod axis;
 pub mod design;
 pub mod edit;
 pub mod fitted;
+pub mod keys;
 pub mod plant;
 pub mod pneumatic;
 

@@ -3,6 +3,7 @@
 
 use super::design::ContinuousPlant;
 use super::fitted::Fitted;
+use super::keys::*;
 use crate::physics::Family;
 
 /// Direction of motion: positive (pulling in, extending) or negative.
@@ -53,34 +54,34 @@ pub struct AxisModel {
 }
 
 /// Parameters whose intervals move the linear design, per family.
-pub fn design_parameters(family: Family) -> &'static [&'static str] {
+pub fn design_parameters(family: Family) -> &'static [PlantKey] {
     match family {
         Family::Solenoid => &[
-            "solenoid.mass_kg",
-            "solenoid.current_time_constant_s",
-            "solenoid.current_gain_a_per_v",
-            "solenoid.force_constant_n_per_a",
-            "viscous.damping_pos_n_s_per_m",
-            "viscous.damping_neg_n_s_per_m",
-            "spring.stiffness_n_per_m",
-            "direction_asymmetry.gain_pos",
-            "direction_asymmetry.gain_neg",
+            SOLENOID_MASS,
+            SOLENOID_LAG,
+            SOLENOID_CURRENT_GAIN,
+            SOLENOID_FORCE_CONSTANT,
+            VISCOUS_POS,
+            VISCOUS_NEG,
+            SPRING_STIFFNESS,
+            ASYMMETRY_POS,
+            ASYMMETRY_NEG,
         ],
         Family::LinearAxis => &[
-            "linear_axis.mass_kg",
-            "viscous.damping_pos_n_s_per_m",
-            "viscous.damping_neg_n_s_per_m",
-            "spring.stiffness_n_per_m",
-            "direction_asymmetry.gain_pos",
-            "direction_asymmetry.gain_neg",
+            LINEAR_AXIS_MASS,
+            VISCOUS_POS,
+            VISCOUS_NEG,
+            SPRING_STIFFNESS,
+            ASYMMETRY_POS,
+            ASYMMETRY_NEG,
         ],
         // The drive's constants (armature, motor, gear) are declared, not fitted: the load side
         // is what the fit determines.
         Family::MotorGear => &[
-            "motor_gear.load_inertia_kg_m2",
-            "viscous.damping_pos_nm_s_per_rad",
-            "viscous.damping_neg_nm_s_per_rad",
-            "payload.max_load_nm",
+            MOTOR_GEAR_LOAD_INERTIA,
+            VISCOUS_POS,
+            VISCOUS_NEG,
+            PAYLOAD_MAX,
         ],
         _ => &[],
     }
@@ -92,12 +93,11 @@ pub fn design_parameters(family: Family) -> &'static [&'static str] {
 pub fn drive_damping(family: Family, value: &dyn Fn(&str) -> Option<f64>) -> f64 {
     match family {
         Family::MotorGear => (|| {
-            let h = value("motor_gear.ratio")?;
+            let value = |k: PlantKey| value(&k.name(family));
+            let h = value(MOTOR_GEAR_RATIO)?;
             Some(
-                h * h
-                    * value("motor_gear.torque_constant_nm_per_a")?
-                    * value("motor_gear.back_emf_v_s_per_rad")?
-                    / value("motor_gear.resistance_ohm")?,
+                h * h * value(MOTOR_GEAR_TORQUE_CONSTANT)? * value(MOTOR_GEAR_BACK_EMF)?
+                    / value(MOTOR_GEAR_RESISTANCE)?,
             )
         })()
         .unwrap_or(0.0),
@@ -106,53 +106,46 @@ pub fn drive_damping(family: Family, value: &dyn Fn(&str) -> Option<f64>) -> f64
 }
 
 impl AxisModel {
-    /// The model with the parameters `value(name)` gives (the fitted values, or a corner of
+    /// The model with the parameters `values(name)` gives (the fitted values, or a corner of
     /// their intervals).
     pub fn with_values(
         family: Family,
-        value: &dyn Fn(&str) -> Option<f64>,
+        values: &dyn Fn(&str) -> Option<f64>,
     ) -> Result<AxisModel, String> {
-        let need = |name: &str| {
-            value(name).ok_or_else(|| format!("the model has no {name}, which the design needs"))
+        // The key's suffix (N or N·m, m or rad) follows the family.
+        let value = |k: PlantKey| values(&k.name(family));
+        let need = |k: PlantKey| {
+            value(k).ok_or_else(|| {
+                format!(
+                    "the model has no {}, which the design needs",
+                    k.name(family)
+                )
+            })
         };
-        let or_zero = |name: &str| value(name).unwrap_or(0.0);
-        // A rotary family's parameters carry N·m and rad in their names.
-        let either = |linear: &str, rotary: &str| value(linear).or_else(|| value(rotary));
-        let damping = [
-            either(
-                "viscous.damping_pos_n_s_per_m",
-                "viscous.damping_pos_nm_s_per_rad",
-            )
-            .unwrap_or(0.0),
-            either(
-                "viscous.damping_neg_n_s_per_m",
-                "viscous.damping_neg_nm_s_per_rad",
-            )
-            .unwrap_or(0.0),
-        ];
+        let or_zero = |k: PlantKey| value(k).unwrap_or(0.0);
+        let damping = [or_zero(VISCOUS_POS), or_zero(VISCOUS_NEG)];
         let asym = [
-            value("direction_asymmetry.gain_pos").unwrap_or(1.0),
-            value("direction_asymmetry.gain_neg").unwrap_or(1.0),
+            value(ASYMMETRY_POS).unwrap_or(1.0),
+            value(ASYMMETRY_NEG).unwrap_or(1.0),
         ];
-        let coulomb = either("coulomb.coulomb_pos_n", "coulomb.coulomb_pos_nm")
-            .zip(either("coulomb.coulomb_neg_n", "coulomb.coulomb_neg_nm"))
+        let coulomb = value(COULOMB_POS)
+            .zip(value(COULOMB_NEG))
             .map(|(p, n)| [p, n]);
-        let backlash_gap = value("backlash.gap_rad").or_else(|| value("backlash.gap_m"));
+        let backlash_gap = value(BACKLASH_GAP);
         match family {
             Family::Solenoid => {
-                let k = need("solenoid.current_gain_a_per_v")?
-                    * need("solenoid.force_constant_n_per_a")?;
+                let k = need(SOLENOID_CURRENT_GAIN)? * need(SOLENOID_FORCE_CONSTANT)?;
                 Ok(AxisModel {
                     family,
-                    mass: need("solenoid.mass_kg")?,
+                    mass: need(SOLENOID_MASS)?,
                     damping,
-                    stiffness: or_zero("spring.stiffness_n_per_m"),
+                    stiffness: or_zero(SPRING_STIFFNESS),
                     gain: [k * asym[0], k * asym[1]],
-                    lag_s: Some(need("solenoid.current_time_constant_s")?),
+                    lag_s: Some(need(SOLENOID_LAG)?),
                     coulomb,
-                    pretension: or_zero("spring.pretension_n"),
-                    supply_exponent: value("supply_gain.exponent"),
-                    supply_nominal: value("solenoid.supply_voltage_v"),
+                    pretension: or_zero(SPRING_PRETENSION),
+                    supply_exponent: value(SUPPLY_EXPONENT),
+                    supply_nominal: value(SOLENOID_SUPPLY),
                     backlash_gap,
                 })
             }
@@ -160,15 +153,15 @@ impl AxisModel {
             // its fitted forces are per command unit, the drive's gain is 1.
             Family::LinearAxis => Ok(AxisModel {
                 family,
-                mass: need("linear_axis.mass_kg")?,
+                mass: need(LINEAR_AXIS_MASS)?,
                 damping,
-                stiffness: or_zero("spring.stiffness_n_per_m"),
+                stiffness: or_zero(SPRING_STIFFNESS),
                 gain: asym,
                 lag_s: None,
                 coulomb,
-                pretension: or_zero("spring.pretension_n"),
-                supply_exponent: value("supply_gain.exponent"),
-                supply_nominal: value("linear_axis.supply_voltage_v"),
+                pretension: or_zero(SPRING_PRETENSION),
+                supply_exponent: value(SUPPLY_EXPONENT),
+                supply_nominal: value(LINEAR_AXIS_SUPPLY),
                 backlash_gap,
             }),
             // Bao et al.'s transmission as one rigid body at the load angle (the shaft and the
@@ -177,30 +170,30 @@ impl AxisModel {
             // (viscous and back-EMF), torque `h K_T / R_a` per volt, the payload
             // `T_l = T_lmax θ / θ_full` as a spring.
             Family::MotorGear => {
-                let h = need("motor_gear.ratio")?;
-                let r = need("motor_gear.resistance_ohm")?;
-                let kt = need("motor_gear.torque_constant_nm_per_a")?;
-                let emf = drive_damping(family, value);
-                let payload = match value("payload.max_load_nm") {
-                    Some(t) => t.abs() / need("payload.full_scale_rad")?,
+                let h = need(MOTOR_GEAR_RATIO)?;
+                let r = need(MOTOR_GEAR_RESISTANCE)?;
+                let kt = need(MOTOR_GEAR_TORQUE_CONSTANT)?;
+                let emf = drive_damping(family, values);
+                let payload = match value(PAYLOAD_MAX) {
+                    Some(t) => t.abs() / need(PAYLOAD_FULL_SCALE)?,
                     None => 0.0,
                 };
                 Ok(AxisModel {
                     family,
-                    mass: need("motor_gear.load_inertia_kg_m2")?
-                        + need("motor_gear.gear_inertia_kg_m2")?
-                        + h * h * need("motor_gear.motor_inertia_kg_m2")?,
+                    mass: need(MOTOR_GEAR_LOAD_INERTIA)?
+                        + need(MOTOR_GEAR_GEAR_INERTIA)?
+                        + h * h * need(MOTOR_GEAR_MOTOR_INERTIA)?,
                     damping: [damping[0] + emf, damping[1] + emf],
-                    stiffness: payload + or_zero("spring.stiffness_nm_per_rad"),
+                    stiffness: payload + or_zero(SPRING_STIFFNESS),
                     gain: [h * kt / r; 2],
                     // The armature's `L_a / R_a` (a third of a millisecond for the project's
                     // motor) settles within a cycle: left out of the design model, whose other
                     // poles it would only drag (the flexible model has it).
                     lag_s: None,
                     coulomb,
-                    pretension: or_zero("spring.pretension_nm"),
-                    supply_exponent: value("supply_gain.exponent"),
-                    supply_nominal: value("motor_gear.supply_voltage_v"),
+                    pretension: or_zero(SPRING_PRETENSION),
+                    supply_exponent: value(SUPPLY_EXPONENT),
+                    supply_nominal: value(MOTOR_GEAR_SUPPLY),
                     backlash_gap,
                 })
             }
@@ -289,10 +282,10 @@ pub fn flexible_with_contact(
 
 /// Every corner of the intervals of `names` that the fit gave (at most 2¹⁰ of them): a value
 /// function per corner.
-pub fn corners(f: &Fitted, names: &[&str]) -> Vec<Vec<(String, f64)>> {
+pub fn corners(f: &Fitted, names: &[String]) -> Vec<Vec<(String, f64)>> {
     let with: Vec<(String, (f64, f64))> = names
         .iter()
-        .filter_map(|n| f.intervals.get(*n).map(|iv| (n.to_string(), *iv)))
+        .filter_map(|n| f.intervals.get(n).map(|iv| (n.clone(), *iv)))
         .take(10)
         .collect();
     (0..1usize << with.len())

@@ -9,10 +9,15 @@ use std::path::Path;
 use super::axis::{chosen_axis, keys, table};
 use super::edit::{round_sig, Change, Editor, Kept};
 use super::fitted::Fitted;
+use super::keys::{
+    PlantKey, PNEUMATIC_ATMOSPHERE, PNEUMATIC_GAIN_DOWN, PNEUMATIC_GAIN_UP, PNEUMATIC_SUPPLY,
+    SUPPLY_EXPONENT, SUPPLY_EXPONENT_POS_SHIFT,
+};
 use super::TuneOptions;
 use crate::control::{effort_weight_for_pole, integrator_lq_gain};
 use crate::daemon::config::{AxisConfig, CommandKind, Config, ScheduleSection};
 use crate::param_key;
+use crate::physics::Family;
 
 /// The section tune writes and its drive-gain columns (down, up), named by the declarations.
 const SCHEDULE: &str = param_key!(AxisConfig, schedule);
@@ -21,8 +26,8 @@ const COLUMNS: [&str; 2] = [
     param_key!(ScheduleSection, drive_gain_up_m_per_s),
 ];
 
-/// The fitted drive gains, down then up (the model's names).
-pub const DRIVE_GAINS: [&str; 2] = ["pneumatic.gain_down_m_per_s", "pneumatic.gain_up_m_per_s"];
+/// The fitted drive gains, down then up.
+pub const DRIVE_GAINS: [PlantKey; 2] = [PNEUMATIC_GAIN_DOWN, PNEUMATIC_GAIN_UP];
 
 /// Why a record of the closed loop leaves the drive gains open, and what record determines them.
 pub const CLOSED_LOOP: &str = "The record does not determine the drive gain well enough: \
@@ -122,7 +127,9 @@ pub fn tune_pneumatic(
 
     // The drive gains must be determined by the fit.
     let mut gain = [0.0; 2];
-    for (i, name) in DRIVE_GAINS.iter().enumerate() {
+    let name = |k: PlantKey| k.name(Family::Pneumatic);
+    let drive_gains = DRIVE_GAINS.map(name);
+    for (i, name) in drive_gains.iter().enumerate() {
         let v = fitted
             .get(name)
             .ok_or_else(|| anyhow::anyhow!("{origin}: the model has no {name}"))?;
@@ -134,7 +141,7 @@ pub fn tune_pneumatic(
             );
         };
         if spread > options.max_spread || v <= 0.0 {
-            let (lo, hi) = fitted.intervals[*name];
+            let (lo, hi) = fitted.intervals[name];
             anyhow::bail!(
                 "{origin}: {name} = {v:.4e} m/s with the 95 % interval [{lo:.4e}, {hi:.4e}], \
                  ±{:.0} % of its value: too wide to design from (at most ±{:.0} %). {CLOSED_LOOP}",
@@ -144,10 +151,11 @@ pub fn tune_pneumatic(
         }
         gain[i] = v;
     }
-    let p_model = fitted.get("pneumatic.supply_pressure_pa").ok_or_else(|| {
-        anyhow::anyhow!("{origin}: the model has no pneumatic.supply_pressure_pa")
-    })?;
-    let p_atm = fitted.get("pneumatic.atmosphere_pa").unwrap_or(101_325.0);
+    let supply = name(PNEUMATIC_SUPPLY);
+    let p_model = fitted
+        .get(&supply)
+        .ok_or_else(|| anyhow::anyhow!("{origin}: the model has no {supply}"))?;
+    let p_atm = fitted.get(&name(PNEUMATIC_ATMOSPHERE)).unwrap_or(101_325.0);
     anyhow::ensure!(
         p_model < p_atm,
         "{origin}: supply pressure {p_model} Pa is not below the atmosphere {p_atm} Pa"
@@ -158,9 +166,11 @@ pub fn tune_pneumatic(
         schedule.drive_gain_down_m_per_s.clone(),
         schedule.drive_gain_up_m_per_s.clone(),
     ];
-    let kappa = fitted.get("supply_gain.exponent");
+    let exponent = name(SUPPLY_EXPONENT);
+    let kappa = fitted.get(&exponent);
     // The up valve's law, `κ + Δκ` (Isermann & Raab's K_I2(P_L)); 0 for one law for both.
-    let shift = fitted.get("supply_gain.exponent_pos_shift").unwrap_or(0.0);
+    let shift_key = name(SUPPLY_EXPONENT_POS_SHIFT);
+    let shift = fitted.get(&shift_key).unwrap_or(0.0);
     let (law, supply_law): (SupplyLaw, String) = match kappa {
         // K_I ∝ (P_atm - P_L)^κ per valve, the model's supply law through the fitted gain at its
         // supply.
@@ -171,8 +181,8 @@ pub fn tune_pneumatic(
             }),
             format!(
                 "K_I = K_I(fit) ((P_atm - P_L) / (P_atm - {p_model:.0} Pa))^κ, the model's \
-                 supply_gain.exponent ({}){}",
-                if fitted.intervals.contains_key("supply_gain.exponent") {
+                 {exponent} ({}){}",
+                if fitted.intervals.contains_key(&exponent) {
                     "fitted"
                 } else {
                     "declared in the model, not fitted"
@@ -182,7 +192,7 @@ pub fn tune_pneumatic(
                 } else {
                     format!(
                         ", κ = {k:.3} for the down valve (K_I1) and {:.3} for the up valve \
-                         (K_I2, exponent_pos_shift {shift:+.3})",
+                         (K_I2, {shift_key} {shift:+.3})",
                         k + shift
                     )
                 }
@@ -274,7 +284,7 @@ pub fn tune_pneumatic(
     }
     // Robustness: the gain designed on the fitted K_I, the drive anywhere in its interval.
     let pole_over_interval = [0, 1].map(|i| {
-        let (lo, hi) = *fitted.intervals.get(DRIVE_GAINS[i])?;
+        let (lo, hi) = *fitted.intervals.get(&drive_gains[i])?;
         let q = q_of(gain[i]);
         let z = |k: f64| 1.0 - q * k * period_s;
         Some((z(hi), z(lo)))
@@ -286,7 +296,7 @@ pub fn tune_pneumatic(
         .map_err(|e| anyhow::anyhow!("{cfg_name}: {e}"))?;
     let mut ed = Editor::new(doc, axis);
     for (i, key) in COLUMNS.iter().enumerate() {
-        let (lo, hi) = fitted.intervals[DRIVE_GAINS[i]];
+        let (lo, hi) = fitted.intervals[&drive_gains[i]];
         ed.set_list(
             SCHEDULE,
             key,
@@ -295,7 +305,7 @@ pub fn tune_pneumatic(
             format!(
                 "{} = {:.4e} m/s (95 % interval [{lo:.4e}, {hi:.4e}]) of {origin} at \
                  {p_model:.0} Pa; over the supply: {supply_law}",
-                DRIVE_GAINS[i], gain[i]
+                drive_gains[i], gain[i]
             ),
         );
     }
