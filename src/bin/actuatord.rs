@@ -1,7 +1,7 @@
 //! `actuatord`: the control daemon. Argument parsing, start-up and shutdown only.
 
-use actuatord::bus::BusError;
 use actuatord::bus::SocketCanBus;
+use actuatord::bus::{Bus, BusError};
 use actuatord::daemon::config::BusConfig;
 use actuatord::daemon::node::NodeCounters;
 use actuatord::daemon::notify::{watchdog_interval, Notifier};
@@ -236,6 +236,9 @@ fn start_bus(
         }
         node.set_node_layout(index, &layout);
     }
+    // The sensors' answers to SYNC get a socket of their own, so a backlog of other traffic
+    // cannot hold them past the sensor deadline.
+    bus.prioritise(&node.cycle_frame_ids())?;
     let (state_sink, state_writer) = match &config.state.file {
         Some(file) => {
             restore_state(&mut node, file);

@@ -89,6 +89,12 @@ pub trait Bus: Send {
     /// The interface name, for messages.
     fn name(&self) -> &str;
 
+    /// Deliver frames with these standard identifiers ahead of any backlog of other traffic
+    /// (the frames that complete a cycle). Buses with no queue to wait in have nothing to do.
+    fn prioritise(&mut self, _ids: &[u32]) -> Result<(), BusError> {
+        Ok(())
+    }
+
     /// Open the connection to the interface again (it was removed and came back, so the old
     /// socket points nowhere). Buses without such a connection have nothing to do.
     fn reopen(&mut self) -> Result<(), BusError> {

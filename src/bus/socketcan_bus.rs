@@ -1,7 +1,7 @@
 //! SocketCAN backend: a raw CAN socket on a kernel interface (can0, vcan0, ...).
 
 use super::{Bus, BusError, BusErrorFrame, BusEvent, Frame};
-use socketcan::{CanFrame, CanSocket, EmbeddedFrame, Frame as _, Socket, SocketOptions};
+use socketcan::{CanFilter, CanFrame, CanSocket, EmbeddedFrame, Frame as _, Socket, SocketOptions};
 use std::io::ErrorKind;
 use std::os::fd::AsRawFd;
 use std::time::{Duration, Instant};
@@ -11,11 +11,20 @@ use std::time::{Duration, Instant};
 pub const RECEIVE_BUFFER_BYTES: usize = 1 << 20;
 
 /// A raw SocketCAN socket with error frames requested, so bus-off and friends are reported.
+///
+/// Frames that complete a cycle (the sensors' answers to SYNC) can be given a socket of their
+/// own ([`Bus::prioritise`]), as a CAN controller gives them a dedicated receive mailbox: one
+/// socket is one FIFO, and behind a backlog of foreign traffic (a flood, or what piled up while
+/// the thread was held) a sensor frame that came in time would be read after its deadline.
 pub struct SocketCanBus {
     iface: String,
     socket: CanSocket,
     /// Standard identifiers let through by the kernel (all when empty); kept for a reopen.
     accept: Vec<u32>,
+    /// The socket of the prioritised identifiers, read before `socket`.
+    urgent: Option<CanSocket>,
+    /// The prioritised standard identifiers (none when empty); kept for a reopen.
+    urgent_ids: Vec<u32>,
 }
 
 impl SocketCanBus {
@@ -26,6 +35,8 @@ impl SocketCanBus {
             iface: iface.to_string(),
             socket,
             accept: Vec::new(),
+            urgent: None,
+            urgent_ids: Vec::new(),
         })
     }
 
@@ -36,13 +47,44 @@ impl SocketCanBus {
         self.apply_filters()
     }
 
-    fn apply_filters(&self) -> Result<(), BusError> {
-        if self.accept.is_empty() {
-            return Ok(());
-        }
+    /// Filters of both sockets: the urgent one takes the prioritised identifiers, the main one
+    /// everything it accepts but those, so each frame is read exactly once.
+    fn apply_filters(&mut self) -> Result<(), BusError> {
         // Match the id, standard frames only (CAN_EFF_FLAG in the mask, clear in the id).
         let mask = libc::CAN_SFF_MASK | libc::CAN_EFF_FLAG;
-        let filters: Vec<(u32, u32)> = self.accept.iter().map(|id| (*id, mask)).collect();
+        self.urgent = None;
+        if !self.urgent_ids.is_empty() {
+            let urgent = Self::open_socket(&self.iface)?;
+            // Error frames come through the main socket only; this one is for data.
+            urgent.set_error_filter_drop_all().map_err(|e| self.io(e))?;
+            let filters: Vec<CanFilter> = self
+                .urgent_ids
+                .iter()
+                .map(|id| CanFilter::new(*id, mask))
+                .collect();
+            urgent.set_filters(&filters).map_err(|e| self.io(e))?;
+            self.urgent = Some(urgent);
+        }
+        let urgent = |id: &u32| self.urgent_ids.contains(id);
+        if !self.accept.is_empty() {
+            let filters: Vec<CanFilter> = self
+                .accept
+                .iter()
+                .filter(|id| !urgent(id))
+                .map(|id| CanFilter::new(*id, mask))
+                .collect();
+            return self.socket.set_filters(&filters).map_err(|e| self.io(e));
+        }
+        if self.urgent_ids.is_empty() {
+            return Ok(());
+        }
+        // Everything but the prioritised identifiers: inverted filters, joined (all must match).
+        let filters: Vec<CanFilter> = self
+            .urgent_ids
+            .iter()
+            .map(|id| CanFilter::new_inverted(*id, mask))
+            .collect();
+        self.socket.set_join_filters(true).map_err(|e| self.io(e))?;
         self.socket.set_filters(&filters).map_err(|e| self.io(e))
     }
 
@@ -93,19 +135,26 @@ impl SocketCanBus {
         (rc == 0).then_some(size as usize)
     }
 
-    /// Wait until a frame is readable or `timeout` passed (either way the caller reads again).
+    /// Wait until a frame is readable on either socket or `timeout` passed (either way the
+    /// caller reads again).
     fn wait_readable(&self, timeout: Duration) -> Result<(), BusError> {
-        let mut pfd = libc::pollfd {
-            fd: self.socket.as_raw_fd(),
+        let pfd = |fd| libc::pollfd {
+            fd,
             events: libc::POLLIN,
             revents: 0,
         };
+        let mut pfds = [pfd(self.socket.as_raw_fd()), pfd(-1)];
+        let mut count = 1;
+        if let Some(urgent) = &self.urgent {
+            pfds[1] = pfd(urgent.as_raw_fd());
+            count = 2;
+        }
         let ts = libc::timespec {
             tv_sec: timeout.as_secs() as libc::time_t,
             tv_nsec: timeout.subsec_nanos() as libc::c_long,
         };
-        // SAFETY: one valid pollfd, a valid timespec, no signal mask change.
-        let rc = unsafe { libc::ppoll(&mut pfd, 1, &ts, std::ptr::null()) };
+        // SAFETY: `count` valid pollfds, a valid timespec, no signal mask change.
+        let rc = unsafe { libc::ppoll(pfds.as_mut_ptr(), count, &ts, std::ptr::null()) };
         if rc < 0 {
             let e = std::io::Error::last_os_error();
             if e.kind() != ErrorKind::Interrupted {
@@ -141,29 +190,22 @@ impl Bus for SocketCanBus {
 
     fn recv_until(&mut self, deadline: Instant) -> Result<Option<BusEvent>, BusError> {
         loop {
+            if let Some(urgent) = &self.urgent {
+                match urgent.read_frame() {
+                    Ok(frame) => match event(frame) {
+                        Some(event) => return Ok(Some(event)),
+                        None => continue,
+                    },
+                    Err(e) if would_block(&e) => {}
+                    Err(e) => return Err(self.io(e)),
+                }
+            }
             match self.socket.read_frame() {
-                Ok(CanFrame::Data(f)) => {
-                    let frame = if f.is_extended() {
-                        Frame::new_extended(f.raw_id(), f.data())
-                    } else {
-                        Frame::new(f.raw_id(), f.data())
-                    };
-                    // The kernel only hands out well-formed classic frames; anything else is skipped.
-                    if let Ok(frame) = frame {
-                        return Ok(Some(BusEvent::Frame(frame)));
+                Ok(frame) => {
+                    if let Some(event) = event(frame) {
+                        return Ok(Some(event));
                     }
                 }
-                Ok(CanFrame::Error(e)) => {
-                    let mut data = [0u8; 8];
-                    let d = e.data();
-                    data[..d.len().min(8)].copy_from_slice(&d[..d.len().min(8)]);
-                    return Ok(Some(BusEvent::ErrorFrame(BusErrorFrame {
-                        class: e.error_bits(),
-                        data,
-                    })));
-                }
-                // Remote frames carry no data this protocol uses.
-                Ok(CanFrame::Remote(_)) => {}
                 Err(e) if e.kind() == ErrorKind::WouldBlock => {
                     let left = deadline.saturating_duration_since(Instant::now());
                     if left.is_zero() {
@@ -177,6 +219,11 @@ impl Bus for SocketCanBus {
         }
     }
 
+    fn prioritise(&mut self, ids: &[u32]) -> Result<(), BusError> {
+        self.urgent_ids = ids.to_vec();
+        self.apply_filters()
+    }
+
     fn name(&self) -> &str {
         &self.iface
     }
@@ -184,5 +231,35 @@ impl Bus for SocketCanBus {
     fn reopen(&mut self) -> Result<(), BusError> {
         self.socket = Self::open_socket(&self.iface)?;
         self.apply_filters()
+    }
+}
+
+/// An interrupted read is retried like an empty one.
+fn would_block(e: &std::io::Error) -> bool {
+    matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::Interrupted)
+}
+
+/// What the bus reports for one frame the kernel handed out: `None` for what carries nothing
+/// this protocol uses (remote frames, and anything but well-formed classic frames).
+fn event(frame: CanFrame) -> Option<BusEvent> {
+    match frame {
+        CanFrame::Data(f) => {
+            let frame = if f.is_extended() {
+                Frame::new_extended(f.raw_id(), f.data())
+            } else {
+                Frame::new(f.raw_id(), f.data())
+            };
+            frame.ok().map(BusEvent::Frame)
+        }
+        CanFrame::Error(e) => {
+            let mut data = [0u8; 8];
+            let d = e.data();
+            data[..d.len().min(8)].copy_from_slice(&d[..d.len().min(8)]);
+            Some(BusEvent::ErrorFrame(BusErrorFrame {
+                class: e.error_bits(),
+                data,
+            }))
+        }
+        CanFrame::Remote(_) => None,
     }
 }

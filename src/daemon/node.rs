@@ -281,6 +281,23 @@ impl ControllerNode {
         self.slots.get(index).map(|s| &s.axis)
     }
 
+    /// The standard identifiers of the frames that answer SYNC with an axis' readings: what
+    /// the bus should deliver ahead of other traffic ([`crate::bus::Bus::prioritise`]).
+    pub fn cycle_frame_ids(&self) -> Vec<u32> {
+        let mut ids = Vec::new();
+        for slot in self.slots.iter() {
+            match slot.link.as_ref() {
+                Some(link) => ids.extend(link.cyclic_ids()),
+                None => {
+                    let node = slot.axis.actuator_node_id;
+                    ids.push(messages::SENSOR.cob_id(node));
+                    ids.push(messages::SUPPLY_PRESSURE.cob_id(node));
+                }
+            }
+        }
+        ids
+    }
+
     /// The axes, to give them what they learned before (a state file).
     pub fn axes_mut(&mut self) -> AxesMut<'_> {
         AxesMut(&mut self.slots)

@@ -131,6 +131,15 @@ impl ProfileLink {
         })
     }
 
+    /// The identifiers of the node's PDOs that answer every SYNC.
+    pub fn cyclic_ids(&self) -> impl Iterator<Item = u32> + '_ {
+        self.tx
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| self.cyclic_mask & (1 << i) != 0)
+            .map(|(_, p)| p.cob_id)
+    }
+
     /// A new cycle: feedback from now on answers its SYNC.
     pub fn begin_cycle(&mut self) {
         self.got_mask = 0;
