@@ -317,7 +317,7 @@ fn candidate(
         let mut best: Option<(f64, f64)> = None;
         for &g in grid {
             let mut s = fitted.clone();
-            s.set(name, g)?;
+            super::regress::set_nonlinear(&mut s, name, g)?;
             let rss = balance(&s, data, d)?.fit(None, 0, d.n_eff_per_sample).rss;
             if rss < fit.rss && best.is_none_or(|(r, _)| rss < r) {
                 best = Some((rss, g));
@@ -325,7 +325,7 @@ fn candidate(
         }
         if let Some((_, g)) = best {
             let mut s = spec.clone();
-            s.set(name, g)?;
+            super::regress::set_nonlinear(&mut s, name, g)?;
             let (f_spec, f) = fit_spec(&s, data, d, None)?;
             if f.rss < fit.rss {
                 (fitted, fit) = (f_spec, f);

@@ -916,18 +916,46 @@ pub fn grid_for(
 /// is not the coil's leaves a residual that follows the drive's changes (a hysteresis or a dead
 /// time would take it). Searched from two samples to 0.1 s; the static gain `K_I K_Mag` is not
 /// separable from the mass, whose fitted value carries it.
+///
+/// A gear driven by its armature voltage without a recorded current: the armature's time
+/// constant `L_a / R_a`, searched as the inductance at the declared resistance. The torque per
+/// volt `K_T / R_a` scales the drive as the load's inertia and friction do, so only their ratio
+/// is determined (the fitted load carries it); the back-EMF damping `h² K_T K_E / R_a` lies on a
+/// viscous friction's column, which takes what the declared constants leave.
 pub fn drive_grid(spec: &PlantSpec, d: &Prepared, raw: &Dataset) -> Vec<(String, Vec<f64>)> {
+    let log_grid = |lo: f64, hi: f64, n: usize| -> Vec<f64> {
+        (0..n)
+            .map(|i| lo * (hi / lo).powf(i as f64 / (n - 1) as f64))
+            .collect()
+    };
+    if armature_identified(spec, raw) {
+        let r = spec.get(GEAR_RESISTANCE).unwrap_or(1.0);
+        let (lo, hi) = armature_bounds(d);
+        return vec![(GEAR_INDUCTANCE.to_string(), log_grid(lo * r, hi * r, 16))];
+    }
     if spec.family != Family::Solenoid || raw.current.is_some() {
         return Vec::new();
     }
     let (lo, hi) = coil_bounds(d);
-    vec![(
-        COIL_TIME_CONSTANT.to_string(),
-        (0..16)
-            .map(|i| lo * (hi / lo).powf(i as f64 / 15.0))
-            .collect(),
-    )]
+    vec![(COIL_TIME_CONSTANT.to_string(), log_grid(lo, hi, 16))]
 }
+
+/// True where the lab identifies a gear's armature from the data: the voltage is the command
+/// and the current is not recorded (a recorded current is the drive's torque itself).
+pub fn armature_identified(spec: &PlantSpec, raw: &Dataset) -> bool {
+    spec.family == Family::MotorGear && spec.command == CommandUnit::Volt && raw.current.is_none()
+}
+
+/// The range of the armature's time constant `L_a / R_a`: a tenth of a sample (shorter shows as
+/// no lag) to 50 ms.
+pub fn armature_bounds(d: &Prepared) -> (f64, f64) {
+    ((0.1 * d.dt).max(1e-6), 0.05)
+}
+
+/// The gear's armature inductance, the drive constant the data determine without a current
+/// (see [`drive_grid`]); its time constant is taken at the declared resistance.
+pub const GEAR_INDUCTANCE: &str = "motor_gear.inductance_h";
+const GEAR_RESISTANCE: &str = "motor_gear.resistance_ohm";
 
 /// The range the coil's time constant is searched over: from two samples (a shorter lag is not
 /// seen at the record's rate) to 0.1 s.
@@ -1368,6 +1396,27 @@ mod tests {
         raw.current = Some(vec![0.0; 200]);
         assert!(drive_grid(&s, &d, &raw).is_empty());
         assert!(drive_grid(&PlantSpec::new(Family::LinearAxis), &d, &raw).is_empty());
+    }
+
+    #[test]
+    fn a_voltage_driven_gear_without_its_current_searches_its_armature_inductance() {
+        let mut s = PlantSpec::new(Family::MotorGear);
+        let mut raw = data(vec![1.0; 200]);
+        let d = crate::lab::signals::prepare(&raw, None);
+        let grid = drive_grid(&s, &d, &raw);
+        assert_eq!(grid.len(), 1);
+        let (name, values) = &grid[0];
+        assert_eq!(name, GEAR_INDUCTANCE);
+        // L_a / R_a from a tenth of the 1 ms sample to 50 ms, at the declared resistance.
+        let r = s.get(GEAR_RESISTANCE).expect("a resistance");
+        let (first, last) = (values[0] / r, values[values.len() - 1] / r);
+        assert!((first - 1e-4).abs() < 1e-12 && (last - 0.05).abs() < 1e-12);
+        // A torque command or a recorded current is the drive itself.
+        s.command = CommandUnit::NewtonMetre;
+        assert!(drive_grid(&s, &d, &raw).is_empty());
+        s.command = CommandUnit::Volt;
+        raw.current = Some(vec![0.0; 200]);
+        assert!(drive_grid(&s, &d, &raw).is_empty());
     }
 
     #[test]

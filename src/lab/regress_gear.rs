@@ -7,7 +7,8 @@
 //! torque and tied to the measured load angle by the contact, a stiff spring-damper with the
 //! backlash dead zone (Bao et al. eq. 1-3). The contact pulls the drive side onto the measured
 //! load, so it does not drift as a free run in closed loop does; what it transmits is what the
-//! load balance needs. The drive-side constants are taken as given; the load side (inertia,
+//! load balance needs. The drive-side constants are taken as given (but the armature's inductance
+//! where the data determine it: `regress::drive_grid`); the load side (inertia,
 //! friction, spring, payload, offset) is linear in its parameters, and the backlash play and the
 //! ratio limit of `varying_ratio` are searched on a grid.
 //!

@@ -4,6 +4,8 @@
 //! load with viscous and dry friction (Karnopp stick band), semi-implicit Euler on sub-steps of
 //! 20 µs or less, and a PID loop on the measured load angle that commands the motor torque. The
 //! constants (ratio, inertias, contact, friction, sample rate, sensor zero) are drawn per seed.
+//! [`Gear::draw_voltage`] puts a DC motor's armature before the drive (`L i' = u - R i - K_E ω_m`,
+//! torque `K_T i`, stepped exactly), commanded by its voltage.
 
 use super::Draw;
 use actuatord::lab::Dataset;
@@ -54,6 +56,19 @@ pub struct Gear {
     pub sensor_zero: f64,
     pub quantum: f64,
     pub noise: f64,
+    /// The armature, when the record's command is its voltage.
+    pub armature: Option<Armature>,
+}
+
+/// A DC motor's armature: resistance Ω, inductance H, back-EMF V·s/rad, torque constant N·m/A,
+/// supply V.
+#[derive(Debug, Clone, Copy)]
+pub struct Armature {
+    pub resistance: f64,
+    pub inductance: f64,
+    pub back_emf: f64,
+    pub torque_constant: f64,
+    pub supply: f64,
 }
 
 impl Gear {
@@ -97,7 +112,27 @@ impl Gear {
             sensor_zero: if g.coin() { g.range(-0.5, 0.5) } else { 0.0 },
             quantum: 2e-5,
             noise: 1e-5,
+            armature: None,
         }
+    }
+
+    /// [`Gear::draw`] behind an armature commanded by its voltage: `L_a / R_a` of 0.5-5 ms, a
+    /// torque constant of 0.02-0.1 N·m/A, a back-EMF within 10 % of it, and a resistance that
+    /// gives the drive's torque limit at 60-80 % of a 24 V supply.
+    pub fn draw_voltage(hidden: Option<GearHidden>, seed: u64) -> Gear {
+        let mut gear = Gear::draw(hidden, seed);
+        let mut g = Draw::new(seed ^ 0xbb67_ae85_84ca_a73b);
+        let supply = 24.0;
+        let torque_constant = g.log_range(0.02, 0.1);
+        let resistance = g.range(0.6, 0.8) * supply * torque_constant / gear.torque_limit;
+        gear.armature = Some(Armature {
+            resistance,
+            inductance: g.log_range(5e-4, 5e-3) * resistance,
+            back_emf: torque_constant * g.range(0.9, 1.1),
+            torque_constant,
+            supply,
+        });
+        gear
     }
 
     /// Effects of the lab's complete model of this plant.
@@ -119,14 +154,27 @@ impl Gear {
             "family = \"motor_gear\"\n\n[motor_gear]\nratio = {}\nmotor_inertia_kg_m2 = {:e}\n\
              gear_inertia_kg_m2 = {:e}\ncontact_stiffness_nm_per_rad = {}\n\
              contact_damping_nm_s_per_rad = {}\nload_inertia_kg_m2 = {}\n\
-             angle_min_rad = -3.0\nangle_max_rad = 3.0\n",
+             angle_min_rad = -3.0\nangle_max_rad = 3.0\n{}",
             self.ratio,
             self.motor_inertia,
             self.gear_inertia,
             self.stiffness,
             self.damping,
-            pick(self.load_inertia, 0.01)
+            pick(self.load_inertia, 0.01),
+            // The data sheet's armature, but for its inductance (the family's default, free).
+            self.armature.map_or(String::new(), |a| format!(
+                "resistance_ohm = {}\nback_emf_v_s_per_rad = {}\ntorque_constant_nm_per_a = {}\n\
+                 supply_voltage_v = {}\n",
+                a.resistance, a.back_emf, a.torque_constant, a.supply
+            ))
         );
+        if self.armature.is_some() {
+            s = s.replacen(
+                "family = \"motor_gear\"\n",
+                "family = \"motor_gear\"\ncommand = \"voltage\"\n",
+                1,
+            );
+        }
         for e in with {
             s.push_str(&match *e {
                 "viscous" => format!(
@@ -146,8 +194,15 @@ impl Gear {
         s.push_str(
             "\n[lab]\nfixed = [\"motor_gear.ratio\", \"motor_gear.motor_inertia_kg_m2\", \
              \"motor_gear.gear_inertia_kg_m2\", \"motor_gear.contact_stiffness_nm_per_rad\", \
-             \"motor_gear.contact_damping_nm_s_per_rad\"]\n",
+             \"motor_gear.contact_damping_nm_s_per_rad\"",
         );
+        if self.armature.is_some() {
+            s.push_str(
+                ", \"motor_gear.resistance_ohm\", \"motor_gear.back_emf_v_s_per_rad\", \
+                 \"motor_gear.torque_constant_nm_per_a\", \"motor_gear.supply_voltage_v\"",
+            );
+        }
+        s.push_str("]\n");
         s
     }
 
@@ -191,6 +246,7 @@ impl Gear {
         };
         let (mut th_d, mut w_d, mut th_l, mut w_l) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         let mut integ = 0.0;
+        let mut current = 0.0;
         let measure = |x: f64, g: &mut Draw| {
             let y = x + self.sensor_zero + self.noise * g.gauss();
             (y / self.quantum).round() * self.quantum
@@ -215,8 +271,16 @@ impl Gear {
                     .sum::<f64>()
                 / norm;
             let raw = kp * e + ki * integ + kd * (rate - w_d);
-            let u = raw.clamp(-self.torque_limit, self.torque_limit);
-            if u == raw {
+            let torque = raw.clamp(-self.torque_limit, self.torque_limit);
+            // A voltage-mode amplifier: the torque's voltage and the back-EMF the motor
+            // encoder's speed predicts, within the supply.
+            let u = match self.armature {
+                Some(a) => (torque * a.resistance / a.torque_constant
+                    + a.back_emf * self.ratio * w_d)
+                    .clamp(-a.supply, a.supply),
+                None => torque,
+            };
+            if torque == raw {
                 integ += e * self.dt;
             }
             d.time.push(time);
@@ -225,8 +289,19 @@ impl Gear {
             transmitted.push(self.contact(th_d - th_l, w_d - w_l));
             for _ in 0..sub {
                 let contact = self.contact(th_d - th_l, w_d - w_l);
+                let motor_torque = match self.armature {
+                    Some(a) => {
+                        // The armature's first-order lag toward its steady current, exact
+                        // over the sub-step at the speed it starts with.
+                        let steady = (u - a.back_emf * self.ratio * w_d) / a.resistance;
+                        let decay = (-h * a.resistance / a.inductance).exp();
+                        current = steady + (current - steady) * decay;
+                        a.torque_constant * current
+                    }
+                    None => u,
+                };
                 // Drive side: the motor torque through the ratio against the contact.
-                w_d += h * (self.ratio * u - contact) / drive_inertia;
+                w_d += h * (self.ratio * motor_torque - contact) / drive_inertia;
                 th_d += h * w_d;
                 // Load side: the contact against viscous and dry friction.
                 let visc = if w_l > 0.0 {
