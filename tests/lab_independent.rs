@@ -40,7 +40,7 @@ fn cases() -> Vec<(Plant, Option<Hidden>)> {
     for h in [H::Coulomb, H::SupplyFriction, H::SupplyGain] {
         v.push((Plant::Pneumatic, Some(h)));
     }
-    for p in [Plant::ServoAxis, Plant::Solenoid] {
+    for p in [Plant::ServoAxis, Plant::Solenoid, Plant::Pneumatic] {
         v.push((p, None));
     }
     v
@@ -53,7 +53,6 @@ fn open_cases() -> Vec<(Plant, Option<Hidden>)> {
     vec![
         (Plant::ServoAxis, Some(H::Stribeck)),
         (Plant::ServoAxis, Some(H::Payload)),
-        (Plant::Pneumatic, None),
     ]
 }
 

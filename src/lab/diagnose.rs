@@ -60,6 +60,10 @@ pub struct Candidate {
     pub delta_bic: f64,
     /// Relative NRMSE drop on the held-out samples.
     pub holdout_improvement: f64,
+    /// RMS residual over the base's, both in the balance's units (`sqrt(RSS / RSS_base)`):
+    /// comparable between candidates where the NRMSE is not, as a candidate that reshapes the
+    /// drive (a dead zone) moves the spread of the reference the NRMSE divides by.
+    pub residual_ratio: f64,
     /// Parameters added (free coefficients plus grid-searched ones).
     pub parameters_added: i64,
     /// Fitted values of the effect's parameters.
@@ -107,6 +111,13 @@ fn evidence(
 
 /// Parameters an effect declares (a spring whose stiffness ends at zero is still a spring, not a
 /// simpler offset).
+/// True when `c` has fewer parameters than `best` and `best` does not cut its residual by
+/// `min_improvement` (RMS, in the balance's units).
+fn simpler_as_good(c: &Candidate, best: &Candidate, min_improvement: f64) -> bool {
+    complexity(c) < complexity(best)
+        && 1.0 - best.residual_ratio / c.residual_ratio.max(f64::MIN_POSITIVE) < min_improvement
+}
+
 fn complexity(c: &Candidate) -> usize {
     EffectKind::from_name(&c.effect).map_or(usize::MAX, |k| k.params().len())
 }
@@ -247,12 +258,7 @@ pub fn diagnose(
         let simpler = candidates
             .iter()
             .enumerate()
-            .filter(|(_, c)| {
-                c.significant
-                    && complexity(c) < complexity(&best)
-                    && (c.nrmse - best.nrmse) / c.nrmse.max(f64::MIN_POSITIVE)
-                        < opts.min_improvement
-            })
+            .filter(|(_, c)| c.significant && simpler_as_good(c, &best, opts.min_improvement))
             .min_by_key(|(_, c)| complexity(c))
             .map(|(i, _)| i);
         if let Some(i) = simpler {
@@ -369,6 +375,7 @@ fn candidate(
         p_value,
         delta_bic,
         holdout_improvement,
+        residual_ratio: (fit.rss / base.rss.max(f64::MIN_POSITIVE)).sqrt(),
         parameters_added: fit.parameters as i64 - k_b as i64,
         parameters,
     })
@@ -389,6 +396,7 @@ impl Diagnosis {
                 "p_value": c.p_value,
                 "delta_bic": c.delta_bic,
                 "holdout_improvement": c.holdout_improvement,
+                "residual_ratio": c.residual_ratio,
                 "parameters_added": c.parameters_added,
                 "parameters": c.parameters.iter().map(|(n, v)| serde_json::json!({"name": n, "value": v})).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
@@ -428,11 +436,42 @@ mod tests {
             p_value: 0.0,
             delta_bic: -10.0,
             holdout_improvement: 0.5,
+            residual_ratio: 0.5,
             parameters_added: 1,
             parameters: Vec::new(),
         };
         assert!(complexity(&c("offset")) < complexity(&c("spring")));
         assert!(complexity(&c("coulomb")) < complexity(&c("stribeck")));
         assert_eq!(complexity(&c("no_such_effect")), usize::MAX);
+    }
+
+    #[test]
+    fn the_simpler_candidate_wins_only_where_its_residual_is_as_small() {
+        let c = |effect: &str, nrmse: f64, residual_ratio: f64| Candidate {
+            effect: effect.into(),
+            nrmse,
+            improvement: 0.5,
+            significant: true,
+            evidence: String::new(),
+            p_value: 0.0,
+            delta_bic: -10.0,
+            holdout_improvement: 0.5,
+            residual_ratio,
+            parameters_added: 1,
+            parameters: Vec::new(),
+        };
+        // A pretension the offset takes as well: the simpler one.
+        assert!(simpler_as_good(
+            &c("offset", 0.1, 0.50),
+            &c("spring", 0.099, 0.49),
+            0.05
+        ));
+        // A dead zone on a pneumatic record (its NRMSE divided by the reshaped drive's spread)
+        // against the Coulomb friction that cuts the residual further: Coulomb stays.
+        assert!(!simpler_as_good(
+            &c("deadzone", 0.015, 0.55),
+            &c("coulomb", 0.114, 0.45),
+            0.05
+        ));
     }
 }

@@ -18,6 +18,7 @@
 //! | [`effects`] | each effect's lab side, one file each: when representable, columns, grid, power stage, evidence |
 //! | [`regress`] | inverse-dynamics regression: the balance of forces, linear in its parameters |
 //! | [`regress_gear`] | the same for `motor_gear`: the load balance with the torque the gear transmits |
+//! | [`motion`] | the balance where the body sticks and slips: moving samples masked to where it surely slides |
 //! | [`compare`] | prediction modes and the fit / NRMSE / RMSE of a model |
 //! | [`regimes`] | error by regime and residual tests: where a model fails |
 //! | [`diagnose`] | candidate effects, their refit, penalised ranking and verdict |
@@ -38,6 +39,7 @@ pub mod drive;
 pub mod effects;
 pub mod methods;
 pub mod model;
+pub mod motion;
 pub mod params;
 pub mod regimes;
 pub mod regress;
