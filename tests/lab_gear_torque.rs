@@ -141,19 +141,8 @@ fn verdict(hidden: Option<GearHidden>, seed: u64) -> Option<String> {
     .expect("diagnosis runs");
     if std::env::var("LAB_VERBOSE").is_ok() {
         eprintln!("  {gear:?}");
-        for c in &dg.candidates {
-            eprintln!(
-                "    {:<20} NRMSE {:.4} drop {:+.3} held-out {:+.3} ΔBIC {:9.1} {} | {}",
-                c.effect,
-                c.nrmse,
-                c.improvement,
-                c.holdout_improvement,
-                c.delta_bic,
-                if c.significant { "*" } else { " " },
-                c.evidence
-            );
-        }
     }
+    lab_common::print_candidates(&dg);
     eprintln!(
         "gear {:<12} seed {seed} dt {:.1} ms{}: NRMSE {:.4}, verdict {}",
         hidden.map_or("(complete)", GearHidden::lab_name),
@@ -191,10 +180,7 @@ fn a_torque_commanded_gear_is_diagnosed() {
 #[test]
 #[ignore = "sweep over seeds; run with --release -- --ignored"]
 fn torque_commanded_gear_sweep() {
-    let seeds: Vec<u64> = std::env::var("LAB_SEEDS")
-        .ok()
-        .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
-        .unwrap_or_else(|| (1..=6).collect());
+    let seeds = lab_common::sweep_seeds(1..=6);
     let mut wrong = Vec::new();
     for hidden in [
         None,

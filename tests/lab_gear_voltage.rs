@@ -96,20 +96,7 @@ fn verdict(hidden: Option<GearHidden>, seed: u64) -> Option<String> {
         &|_, _, _| {},
     )
     .expect("diagnosis runs");
-    if std::env::var("LAB_VERBOSE").is_ok() {
-        for c in &dg.candidates {
-            eprintln!(
-                "    {:<20} NRMSE {:.4} drop {:+.3} held-out {:+.3} ΔBIC {:9.1} {} | {}",
-                c.effect,
-                c.nrmse,
-                c.improvement,
-                c.holdout_improvement,
-                c.delta_bic,
-                if c.significant { "*" } else { " " },
-                c.evidence
-            );
-        }
-    }
+    lab_common::print_candidates(&dg);
     eprintln!(
         "voltage gear {:<12} seed {seed} dt {:.1} ms: NRMSE {:.4}, verdict {}",
         hidden.map_or("(complete)", GearHidden::lab_name),
@@ -139,10 +126,7 @@ fn a_voltage_driven_gear_is_diagnosed() {
 #[test]
 #[ignore = "sweep over seeds; run with --release -- --ignored"]
 fn voltage_driven_gear_sweep() {
-    let seeds: Vec<u64> = std::env::var("LAB_SEEDS")
-        .ok()
-        .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
-        .unwrap_or_else(|| (1..=8).collect());
+    let seeds = lab_common::sweep_seeds(1..=8);
     let mut errors = Vec::new();
     let mut wrong = Vec::new();
     for &seed in &seeds {

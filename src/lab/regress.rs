@@ -297,18 +297,20 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
     for e in effects::present(spec) {
         e.load_terms(&cx, dry_scale.as_deref(), &mut terms)?;
     }
+    // The load side's terms on other signals, for the masked balance of the moving samples.
+    let load_on = |light: &Prepared, t: &mut Vec<Term>| -> anyhow::Result<()> {
+        let cx = Cx {
+            spec,
+            raw,
+            d: light,
+        };
+        for e in effects::present(spec) {
+            e.load_terms(&cx, dry_scale.as_deref(), t)?;
+        }
+        Ok(())
+    };
     if spec.family == Family::MotorGear {
-        super::regress_gear::in_motion(spec, raw, d, &mut terms, &|light, t| {
-            let cx = Cx {
-                spec,
-                raw,
-                d: light,
-            };
-            for e in effects::present(spec) {
-                e.load_terms(&cx, dry_scale.as_deref(), t)?;
-            }
-            Ok(())
-        })?;
+        super::regress_gear::in_motion(spec, raw, d, &mut terms, &load_on)?;
     } else if spec.family == Family::Pneumatic {
         // A valve under a proportional loop pushes the piston in hops at small duty, where the
         // chamber's lag and the filter's reach blur each stop: on the independent simulator the
@@ -318,15 +320,7 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
         // axis' stribeck case went from 1 seed of 3 to none).
         super::motion::in_motion(raw, d, &mut terms, &|light, t| {
             body_drive_terms(spec, raw, light, t)?;
-            let cx = Cx {
-                spec,
-                raw,
-                d: light,
-            };
-            for e in effects::present(spec) {
-                e.load_terms(&cx, dry_scale.as_deref(), t)?;
-            }
-            Ok(())
+            load_on(light, t)
         })?;
     }
     let n = d.y.len();

@@ -27,6 +27,33 @@ pub fn actuator<S: AsRef<str>>(dir: &Path, args: &[S]) -> String {
     stdout
 }
 
+/// The seeds of a sweep: `LAB_SEEDS=1,2,3` when set, `default` otherwise.
+pub fn sweep_seeds(default: std::ops::RangeInclusive<u64>) -> Vec<u64> {
+    std::env::var("LAB_SEEDS")
+        .ok()
+        .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
+        .unwrap_or_else(|| default.collect())
+}
+
+/// Every candidate of a diagnosis, one line each, when `LAB_VERBOSE` is set.
+pub fn print_candidates(dg: &actuatord::lab::diagnose::Diagnosis) {
+    if std::env::var("LAB_VERBOSE").is_err() {
+        return;
+    }
+    for c in &dg.candidates {
+        eprintln!(
+            "    {:<20} NRMSE {:.4} drop {:+.3} held-out {:+.3} ΔBIC {:9.1} {} | {}",
+            c.effect,
+            c.nrmse,
+            c.improvement,
+            c.holdout_improvement,
+            c.delta_bic,
+            if c.significant { "*" } else { " " },
+            c.evidence
+        );
+    }
+}
+
 /// A small deterministic generator for parameter variation.
 pub struct Lcg(pub u64);
 impl Lcg {
