@@ -307,20 +307,7 @@ fn run_case(c: &Case, seed: u64, seconds: f64) -> Row {
     }
     let opts = DiagnoseOptions::default();
     let dg = diagnose(&model, &data, &prep, &opts, &|_, _, _| {}).expect("diagnosis runs");
-    if std::env::var("LAB_VERBOSE").is_ok() {
-        for c in &dg.candidates {
-            eprintln!(
-                "    {:<20} NRMSE {:.4} drop {:+.3} held-out {:+.3} ΔBIC {:9.1} {} | {}",
-                c.effect,
-                c.nrmse,
-                c.improvement,
-                c.holdout_improvement,
-                c.delta_bic,
-                if c.significant { "*" } else { " " },
-                c.evidence
-            );
-        }
-    }
+    lab_common::print_candidates(&dg);
     let label = format!(
         "{:<12} {:<20} seed {seed}",
         c.family.name(),

@@ -171,8 +171,8 @@ impl ParamSpec {
     }
 }
 
-/// `a == b`, in a constant.
-const fn same(a: &str, b: &str) -> bool {
+/// `a == b`, in a constant (a `const fn` may not compare `str`s otherwise).
+pub const fn same(a: &str, b: &str) -> bool {
     let (a, b) = (a.as_bytes(), b.as_bytes());
     if a.len() != b.len() {
         return false;

@@ -77,6 +77,6 @@ mod choice;
 mod declare;
 
 pub use declare::{
-    Access, Declared, Kind, ParamSpec, ParamValue, COMMAND_PER_M_UNIT, COMMAND_UNIT,
+    same, Access, Declared, Kind, ParamSpec, ParamValue, COMMAND_PER_M_UNIT, COMMAND_UNIT,
     FORCE_PER_COMMAND_UNIT,
 };

@@ -132,7 +132,7 @@ impl ParamDef {
     pub const fn declared(defs: &'static [ParamDef], base: &str) -> ParamDef {
         let mut i = 0;
         while i < defs.len() {
-            if same(defs[i].base, base) {
+            if crate::param::same(defs[i].base, base) {
                 return defs[i];
             }
             i += 1;
@@ -174,22 +174,6 @@ impl ParamDef {
         };
         Err(format!("{rule}, got {value}"))
     }
-}
-
-/// `a == b`, in a constant.
-const fn same(a: &str, b: &str) -> bool {
-    let (a, b) = (a.as_bytes(), b.as_bytes());
-    if a.len() != b.len() {
-        return false;
-    }
-    let mut i = 0;
-    while i < a.len() {
-        if a[i] != b[i] {
-            return false;
-        }
-        i += 1;
-    }
-    true
 }
 
 /// A parameter of a concrete model: its definition, key, value and whether the lab may fit it.
