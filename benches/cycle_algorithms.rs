@@ -82,6 +82,7 @@ fn adaptive_friction() -> AdaptiveFriction {
             error_deadband_m: 3e-6,
             model_deadband_m: 10e-6,
             settled_band_m: 20e-6,
+            step_max_m: 1e-3,
         },
         initial_pos: 0.098,
         initial_neg: 0.098,

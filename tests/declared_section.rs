@@ -166,7 +166,7 @@ fn the_adaptive_friction_entries_and_sdo_writes_are_the_declaration() {
     entries_and_writes_follow::<AdaptiveFrictionSection>(
         |a| a.adaptive_friction.as_ref(),
         ADAPTIVE_FRICTION,
-        6,
+        7,
     );
 }
 

@@ -2,9 +2,40 @@
 
 use actuatord::daemon::recorder::read_cycles;
 use actuatord::defaults::{self, Source};
-use actuatord::demo::{run_with, Clock, Script, DIP_END_S, FAULT_AT_S, FRICTION_AT_S};
+use actuatord::demo::{
+    run_with, Clock, PhaseFigures, Script, DIP_END_S, FAULT_AT_S, FRICTION_AT_S,
+};
 use actuatord::physics::Family;
 use actuatord::supervise::FaultKind;
+
+/// The paper's upper figure for the small-step offset with adaptive friction compensation
+/// (Isermann & Raab, Fig. 17: 25-50 µm).
+const PAPER_ADAPTIVE_MAX_M: f64 = 50e-6;
+
+/// The friction and dip phases of one run: after friction x3 the adapted steps end better than
+/// the first one after the rise and inside the paper's band, the approach compensation learned
+/// the tripled friction (at least twice its level at the rise; 3 F_C / K = 1.0 V), and the
+/// dip's steps end inside the band.
+fn assert_learns_the_friction_and_rides_out_the_dip(p: &PhaseFigures, run: &str) {
+    assert!(
+        p.friction_error_after_m < p.friction_error_before_m
+            && p.friction_error_after_m < PAPER_ADAPTIVE_MAX_M,
+        "{run}: adapted {} vs right after the rise {}",
+        p.friction_error_after_m,
+        p.friction_error_before_m
+    );
+    assert!(
+        p.compensation_after.0 >= 2.0 * p.compensation_before.0,
+        "{run}: U_comp+ {:?} -> {:?}",
+        p.compensation_before,
+        p.compensation_after
+    );
+    assert!(
+        p.dip_error_m < PAPER_ADAPTIVE_MAX_M,
+        "{run}: dip {}",
+        p.dip_error_m
+    );
+}
 
 #[test]
 fn the_demo_tells_its_story_in_lockstep_from_any_directory() {
@@ -48,9 +79,13 @@ fn the_demo_tells_its_story_in_lockstep_from_any_directory() {
     assert_eq!(s.injected.len(), script.faults.len());
     let p = &s.phases;
 
-    // 1. Nominal: every step settles to within a few sensor quanta (1 µm), no fault.
+    // 1. Nominal: every step settles, no fault; the guide's stiction (the paper's Fig. 17)
+    // leaves a stick-slip offset, inside the paper's band with adaptive compensation.
     for st in s.steps.iter().filter(|st| st.at_s < FRICTION_AT_S) {
-        assert!(st.steady_state_error_m.abs() < 5e-6, "{st:?}");
+        assert!(
+            st.steady_state_error_m.abs() < PAPER_ADAPTIVE_MAX_M,
+            "{st:?}"
+        );
         assert!(
             st.settling_time_s.is_some() && st.faults.is_empty(),
             "{st:?}"
@@ -71,35 +106,16 @@ fn the_demo_tells_its_story_in_lockstep_from_any_directory() {
     }
     // The steady error right after the rise and once the compensation has adapted (the last
     // steps before the dip) are measured and printed as this run has them.
-    assert!(
-        p.friction_error_before_m > 0.0 && p.friction_error_after_m > 0.0,
-        "{p:?}"
-    );
     let friction_line = format!(
         "steady error {:.1} µm on the first step, {:.1} µm on the last two before the dip",
         p.friction_error_before_m * 1e6,
         p.friction_error_after_m * 1e6
     );
     assert!(text.contains(&friction_line), "{friction_line}\n{text}");
-    // The adaptive compensation (with the arrival relief it learns beside it) brings the steady
-    // error back to within 1.5x of the nominal steps' (a sensor quantum allowed), from the
-    // larger error right after the rise.
-    let quantum = 1e-6;
-    assert!(
-        p.friction_error_after_m <= 1.5 * p.nominal_small_error_m + quantum,
-        "adapted {} vs nominal {}",
-        p.friction_error_after_m,
-        p.nominal_small_error_m
-    );
-    assert!(
-        p.friction_error_after_m < p.friction_error_before_m,
-        "adapted {} vs right after the rise {}",
-        p.friction_error_after_m,
-        p.friction_error_before_m
-    );
+    assert_learns_the_friction_and_rides_out_the_dip(p, "built-in plant");
 
     // 3. The dip: 16.8 V measured (24 V x 0.7), gains x24/16.8, the warning EMCY (mains
-    // under-voltage) once, no safe state; the small steps settle as before the dip.
+    // under-voltage) once, no safe state.
     assert!(
         (16.6..17.0).contains(&p.dip_supply_min),
         "{}",
@@ -114,18 +130,6 @@ fn the_demo_tells_its_story_in_lockstep_from_any_directory() {
     assert_eq!(code, 0x3120);
     assert!(after < 0.05, "{after}");
     assert!(!p.dip_safe_state);
-    assert!(
-        p.dip_error_m <= 1.25 * p.pre_dip_error_m + quantum,
-        "{} vs {}",
-        p.dip_error_m,
-        p.pre_dip_error_m
-    );
-    assert!(
-        p.dip_settling_s <= 1.25 * p.pre_dip_settling_s,
-        "{} vs {}",
-        p.dip_settling_s,
-        p.pre_dip_settling_s
-    );
     // The warning ends with the dip: an "error reset" EMCY after it, before the real fault.
     assert!(s
         .emcys
@@ -196,4 +200,70 @@ fn sim_runs_from_any_directory_on_the_built_in_files_and_a_named_file_wins() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(err.contains("mine.toml: cannot read"), "{err}");
+}
+
+/// The story's claims hold for plants drawn with other seeds (sensor noise, the stick-slip
+/// cycle), and the supply schedule is what rides out the dip: with fixed gains the same dip's
+/// steps settle much later.
+#[test]
+fn over_plant_seeds_the_compensation_learns_and_the_schedule_rides_out_the_dip() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let plant = defaults::plant(Family::Solenoid).text;
+    let config = defaults::config(Family::Solenoid).text;
+    let scheduled_gains = "gain_factor = [1.6, 1.5, 1.3333, 1.1429, 1.0, 0.8571, 0.75]";
+    assert!(config.contains(scheduled_gains));
+    let fixed = config.replace(
+        scheduled_gains,
+        "gain_factor = [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0]",
+    );
+    let write = |name: &str, text: &str| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).expect("write");
+        Source::File(path)
+    };
+    let scheduled_config = write("scheduled.toml", config);
+    let fixed_config = write("fixed.toml", &fixed);
+    let script = Script::standard().expect("script");
+    let settling = |s: f64| if s.is_finite() { s } else { f64::INFINITY };
+    for seed in 1..=8 {
+        let plant = write(
+            &format!("plant{seed}.toml"),
+            &plant.replacen("seed = 1", &format!("seed = {seed}"), 1),
+        );
+        let run = |config: &Source| {
+            run_with(
+                config,
+                &plant,
+                &script,
+                &dir.path().join("run.mcap"),
+                Clock::LockStep,
+            )
+            .expect("demo runs")
+            .phases
+        };
+        let p = run(&scheduled_config);
+        let f = run(&fixed_config);
+        println!(
+            "seed {seed}: nominal {:.1} µm; friction {:.1} -> {:.1} µm, U_comp+ {:.2} -> {:.2} V; dip {:.1} µm, settling {:.0} ms scheduled, {:.0} ms fixed",
+            p.nominal_small_error_m * 1e6,
+            p.friction_error_before_m * 1e6,
+            p.friction_error_after_m * 1e6,
+            p.compensation_before.0,
+            p.compensation_after.0,
+            p.dip_error_m * 1e6,
+            p.dip_settling_s * 1e3,
+            f.dip_settling_s * 1e3,
+        );
+        assert!(
+            p.nominal_small_error_m < PAPER_ADAPTIVE_MAX_M,
+            "seed {seed}: {p:?}"
+        );
+        assert_learns_the_friction_and_rides_out_the_dip(&p, &format!("seed {seed}"));
+        assert!(
+            1.5 * settling(p.dip_settling_s) < settling(f.dip_settling_s),
+            "seed {seed}: dip settling {} scheduled vs {} fixed",
+            p.dip_settling_s,
+            f.dip_settling_s
+        );
+    }
 }

@@ -5,7 +5,7 @@ use actuatord::bench::fault_table::{
 };
 use actuatord::bench::paper::{
     diagnose_paper_faults, identify_solenoid_on, observer_friction_rise, pneumatic_settling,
-    solenoid_small_step, PneumaticStrategy, SmallStepMode, ThirdOrder, SOLENOID_FIG17_PLANT,
+    solenoid_small_step, PneumaticStrategy, SmallStepMode, ThirdOrder, SOLENOID_PLANT,
 };
 use actuatord::bench::{run_paper_bench, PaperTable};
 use actuatord::physics::FaultKind;
@@ -51,8 +51,7 @@ fn the_adaptive_dither_beats_linear_control_and_adapts() {
 
 #[test]
 fn identification_finds_the_papers_positive_direction_mechanics() {
-    let id = identify_solenoid_on(SOLENOID_FIG17_PLANT, "config/plants/solenoid_fig17.toml")
-        .expect("runs");
+    let id = identify_solenoid_on(SOLENOID_PLANT, "config/plants/solenoid.toml").expect("runs");
     let p = ThirdOrder::PAPER_POS;
     let near = |ours: f64, paper: f64, tol: f64| (ours / paper - 1.0).abs() <= tol;
     // The mechanics and the static gain of G+ (eq. 26) within 10 %.

@@ -237,7 +237,7 @@ fn tour(c: &mut Config, seconds: f64) {
 #[test]
 fn a_spring_drop_is_diagnosed_as_f2() {
     let mut c = config("solenoid.toml", "");
-    tour(&mut c, 130.0);
+    tour(&mut c, 150.0);
     let mut rig = Rig::new(&c, "solenoid.toml", &["spring_x0.73@100s"]);
     rig.run_until(100.0);
     let d = rig.last_diagnosis();
@@ -246,9 +246,10 @@ fn a_spring_drop_is_diagnosed_as_f2() {
         "nominal learned from the healthy windows"
     );
     assert!(rig.emcys().is_empty(), "healthy: {:?}", rig.emcys());
-    // A window is 1500 moving samples, about 8 s of this tour: the first window after the fault
-    // mixes both plants, the next two confirm F2.
-    rig.run_until(130.0);
+    // A window is 1500 moving samples, about 12 s of this tour (the armature stops at every
+    // step end, and the 16 samples after each start are left out): the first window after the
+    // fault mixes both plants, the next two confirm F2 (named 30-40 s after the fault).
+    rig.run_until(150.0);
     let s = rig.last_fault_state();
     assert_eq!(s.diagnosed_fault, Some(SupervisedFault::SpringStiffness));
     assert_eq!(s.state, FaultState::MaintenanceRequested);
@@ -260,12 +261,12 @@ fn a_spring_drop_is_diagnosed_as_f2() {
 #[test]
 fn a_sensor_offset_is_diagnosed_as_f5_and_announced() {
     let mut c = config("solenoid.toml", "");
-    tour(&mut c, 130.0);
+    tour(&mut c, 150.0);
     let mut rig = Rig::new(&c, "solenoid.toml", &["sensor_offset_0.0005@100s"]);
     rig.run_until(100.0);
     assert!(rig.emcys().is_empty(), "healthy: {:?}", rig.emcys());
     // A reading 0.5 mm too high: the spring seems to pull less at the same position (F_0 -).
-    rig.run_until(130.0);
+    rig.run_until(150.0);
     let s = rig.last_fault_state();
     assert_eq!(s.diagnosed_fault, Some(SupervisedFault::SensorOffset));
     assert_eq!(s.state, FaultState::MaintenanceRequested);
@@ -295,15 +296,15 @@ fn a_configured_fault_table_replaces_the_built_in_one() {
     let path = dir.path().join("table.toml");
     std::fs::write(&path, swapped_table()).expect("write");
     let mut c = config("solenoid.toml", "");
-    tour(&mut c, 120.0);
+    tour(&mut c, 150.0);
     c.axis[0]
         .parameter_estimation
         .as_mut()
         .expect("configured")
         .fault_table = Some(path);
     let mut rig = Rig::new(&c, "solenoid.toml", &["spring_x0.73@100s"]);
-    // The built-in table names the spring drop about 16 s after it (a_spring_drop_is_diagnosed_as_f2).
-    rig.run_until(120.0);
+    // The built-in table names the spring drop 30-40 s after it (a_spring_drop_is_diagnosed_as_f2).
+    rig.run_until(150.0);
     // The spring drop's symptoms, named by the configured table.
     assert_eq!(
         rig.last_fault_state().diagnosed_fault,
@@ -336,30 +337,27 @@ fn a_broken_fault_table_is_refused_naming_the_file_and_the_key() {
 
 #[test]
 fn adaptive_friction_lowers_the_small_step_offset() {
-    // Small steps around 5 mm, 0.3 s each; mean |e| over the last 50 ms of each.
+    // The paper's small-step protocol (Fig. 17, `actuator bench paper`): 0.2 mm steps, each held
+    // 1 s, the offset the mean |e| over the last 0.1 s of each; three steps of warm-up.
     let offset = |edit: &str| {
         let mut c = config("solenoid.toml", "");
         if edit == "plain" {
             c.axis[0].adaptive_friction = None;
             c.axis[0].friction_compensation = None;
         }
-        let sizes = [0.1e-3, 0.2e-3, 0.3e-3, 0.15e-3];
-        let mut w = vec![0.005, 0.0053, 0.005, 0.0047, 0.005, 0.0052, 0.0049];
-        for i in 0..24 {
-            let s = if i % 2 == 0 { 1.0 } else { -1.0 };
-            w.push(0.005 + s * sizes[i % 4]);
-        }
+        let mut w = vec![0.010];
+        w.extend((0..15).map(|i| if i % 2 == 0 { 0.0102 } else { 0.0100 }));
+        c.axis[0].initial_setpoint_m = 0.010;
         c.axis[0].setpoints = w
             .iter()
             .enumerate()
-            .map(|(i, p)| step(0.3 * i as f64, *p))
+            .map(|(i, p)| step(i as f64, *p))
             .collect();
         let mut rig = Rig::new(&c, "solenoid.toml", &[]);
-        rig.run_until(0.3 * w.len() as f64);
+        rig.run_until(w.len() as f64);
         let (mut sum, mut n) = (0.0, 0);
         for r in &rig.records {
-            let phase = (r.t_s / 0.3).fract();
-            if r.t_s > 0.3 * 11.0 && phase > 0.83 {
+            if r.t_s > 4.0 && r.t_s.fract() > 0.9 {
                 sum += (r.setpoint_position - r.position).abs();
                 n += 1;
             }
@@ -381,10 +379,14 @@ fn adaptive_friction_lowers_the_small_step_offset() {
         plain * 1e6,
         adaptive * 1e6
     );
-    assert!(adaptive < 0.7 * plain, "plain {plain} adaptive {adaptive}");
+    // The paper's figures with the accepted margins of `bench paper`: the linear loop 88-168 µm
+    // (paper 110-140), the adaptive compensation 20-60 µm (paper 25-50), at least 2.2 times less.
+    assert!((88e-6..168e-6).contains(&plain), "plain {plain}");
+    assert!((20e-6..60e-6).contains(&adaptive), "adaptive {adaptive}");
+    assert!(plain >= 2.2 * adaptive, "plain {plain} adaptive {adaptive}");
     // What was learned is on the bus: the last tuned_parameters frame carries the value the axis
     // ended with (within the frame's 1 mV and one status period of learning), and that value
-    // moved away from the unadapted start the first frame carried (0.098 V) by more than five
+    // moved away from the unadapted start the first frame carried (0.27 V) by more than five
     // quanta of the frame: an adaptation that learned nothing, or a frame that carries the
     // start value, fails here.
     let (first, end) = (tuned[0], tuned[tuned.len() - 1]);
@@ -501,12 +503,62 @@ fn a_healthy_200_s_tour_raises_no_finding_and_the_compensation_stays_bounded() {
     let s = rig.last_fault_state();
     assert_eq!(s.state, FaultState::Ok);
     assert_eq!(s.diagnosed_fault, None);
-    // Noise and the loop's small limit cycles must not ratchet the learned friction up: it
-    // stays below the feed-forward value 0.8 * 0.2 N / 1.63 N/V = 0.098 V plus half of it, far
-    // from compensation_max = 0.4 V.
+    // Noise, stick-slip and the loop's small limit cycles must not ratchet the learned friction
+    // up: it stays below the plant's breakaway force as command, 0.83 N / 1.63 N/V = 0.51 V, far
+    // from compensation_max = 1.5 V; and it learned (moved from the feed-forward 0.27 V).
     let (pos, neg) = largest_compensation(&rig);
-    println!("largest U_comp+ {pos:.3} V, U_comp- {neg:.3} V over 200 s");
-    assert!(pos < 0.15 && neg < 0.15, "U_comp+ {pos}, U_comp- {neg}");
+    let last = rig.records.last().expect("records");
+    println!(
+        "largest U_comp+ {pos:.3} V, U_comp- {neg:.3} V over 200 s, at the end {:.3} / {:.3} V",
+        last.friction_compensation_pos, last.friction_compensation_neg
+    );
+    assert!(pos < 0.51 && neg < 0.51, "U_comp+ {pos}, U_comp- {neg}");
+}
+
+#[test]
+fn small_steps_for_200_s_keep_the_learned_friction_bounded() {
+    // The steps the compensation adapts on (0.2 mm, the paper's Fig. 17), one every 0.5 s:
+    // stick-slip at every step end, healthy plant.
+    let mut c = config("solenoid.toml", "");
+    c.axis[0].initial_setpoint_m = 0.010;
+    c.axis[0].setpoints = (0..400)
+        .map(|i| step(0.5 * f64::from(i), if i % 2 == 0 { 0.0102 } else { 0.0100 }))
+        .collect();
+    let mut rig = Rig::new(&c, "solenoid.toml", &[]);
+    rig.run_until(200.0);
+    assert!(rig.emcys().is_empty(), "healthy: {:?}", rig.emcys());
+    // What the loop feels of the compensation is its jump U+ + U- where the error changes sign:
+    // away from the set-point the controller's integral holds any common part, so the split
+    // between the two drifts (0.88 / 0.09 V at the end) while the jump stays below twice the
+    // breakaway force as command, 2 x 0.83 N / 1.63 N/V = 1.02 V. The steps still end within
+    // the paper's 25-50 µm, no worse than in the first 20 s, and no finding is raised.
+    let jump = rig
+        .records
+        .iter()
+        .map(|r| r.friction_compensation_pos + r.friction_compensation_neg)
+        .fold(0.0, f64::max);
+    let end_error = |from: f64, to: f64| {
+        let tail: Vec<f64> = rig
+            .records
+            .iter()
+            .filter(|r| r.t_s >= from && r.t_s < to && (r.t_s / 0.5).fract() > 0.8)
+            .map(|r| (r.setpoint_position - r.position).abs())
+            .collect();
+        tail.iter().sum::<f64>() / tail.len() as f64
+    };
+    let (early, late) = (end_error(5.0, 25.0), end_error(180.0, 200.0));
+    let last = rig.records.last().expect("records");
+    println!(
+        "U_comp+ / U_comp- at the end {:.3} / {:.3} V, largest U+ + U- {jump:.3} V; step ends \
+         {:.1} µm in 5-25 s, {:.1} µm in 180-200 s",
+        last.friction_compensation_pos,
+        last.friction_compensation_neg,
+        early * 1e6,
+        late * 1e6
+    );
+    assert!(jump < 1.02, "U+ + U- {jump}");
+    assert!(late < 50e-6 && late <= early + 1e-6, "{early} -> {late}");
+    assert_eq!(rig.last_fault_state().state, FaultState::Ok);
 }
 
 #[test]

@@ -24,7 +24,7 @@ learn_interval_s = 0.1
 ";
 
 /// The shipped solenoid axis (with a learned table) on a tour of steps every 0.25 s between 4 and 12 mm: the
-/// excitation the estimation windows and the observer bands need.
+/// excitation the estimation windows and the observer bands need; then small steps.
 fn config(edit: &str) -> Config {
     let path = root().join("config/solenoid.toml");
     let text = std::fs::read_to_string(&path).expect("shipped config") + LEARNED_TABLE + edit;
@@ -32,10 +32,20 @@ fn config(edit: &str) -> Config {
     let t = [
         0.004, 0.009, 0.006, 0.011, 0.005, 0.010, 0.007, 0.012, 0.0045, 0.0085,
     ];
-    c.axis[0].setpoints = (0..240)
+    // 110 s of large steps (what the estimation and the observer learn from), then 10 s of small
+    // ones (0.2 mm, what the friction compensation adapts on) at 5 and at 9 mm.
+    let small = |i: usize| {
+        let centre = if i < 20 { 0.005 } else { 0.009 };
+        centre + if i % 2 == 1 { 2e-4 } else { 0.0 }
+    };
+    c.axis[0].setpoints = (0..480)
         .map(|i| SetpointStep {
             at_s: 0.25 * i as f64,
-            position_m: t[i % t.len()],
+            position_m: if i < 440 {
+                t[i % t.len()]
+            } else {
+                small(i - 440)
+            },
         })
         .collect();
     c.axis[0].initial_setpoint_m = 0.004;
@@ -83,8 +93,8 @@ fn sdo_write(rig: &mut LockStep, name: &str, value: f64) {
 fn what_the_axis_learned_is_in_the_dictionary_and_survives_a_parameter_write() {
     let c = config("");
     let mut rig = rig(&c);
-    rig.run(55.0, &mut |_| {});
-    // Cycle 22000 publishes (every status period): the dictionary then shows this cycle's values.
+    rig.run(120.0, &mut |_| {});
+    // Cycle 48000 publishes (every status period): the dictionary then shows this cycle's values.
     rig.cycle();
     let node = rig.controller();
     let learned = node.axes()[0].learned();
@@ -92,7 +102,7 @@ fn what_the_axis_learned_is_in_the_dictionary_and_survives_a_parameter_write() {
     let (pos, neg) = learned.friction_compensation.expect("adaptive friction");
     assert_eq!(real(od, "friction_compensation_pos"), pos);
     assert_eq!(real(od, "friction_compensation_neg"), neg);
-    let nominal = learned.nominal.expect("nominal learned in 55 s");
+    let nominal = learned.nominal.expect("nominal learned in 120 s");
     assert_eq!(
         real(od, "nominal_natural_frequency_rad_per_s"),
         nominal.p.values[2]
@@ -104,7 +114,7 @@ fn what_the_axis_learned_is_in_the_dictionary_and_survives_a_parameter_write() {
     assert!(real(od, "estimate_natural_frequency_rad_per_s").is_finite());
     let bands = learned
         .observer_bands
-        .expect("observer bands learned in 55 s");
+        .expect("observer bands learned in 120 s");
     assert_eq!(real(od, "observer_x4_pos_low_m"), bands[0].0);
     assert_eq!(real(od, "observer_x4_neg_high_m"), bands[1].1);
     let cells = unsigned(od, "learned_table_cells");
@@ -149,14 +159,14 @@ fn what_the_axis_learned_is_in_the_dictionary_and_survives_a_parameter_write() {
 fn a_reload_keeps_what_was_learned_and_the_state_file_carries_it_to_a_new_daemon() {
     let c = config("");
     let mut rig = rig(&c);
-    rig.run(55.0, &mut |_| {});
+    rig.run(120.0, &mut |_| {});
     let learned = rig.controller().axes()[0].learned();
     assert!(learned.nominal.is_some() && learned.observer_bands.is_some());
 
     // SIGHUP with a changed limit: the axis is rebuilt, nothing learned is lost.
     let mut changed = c.clone();
     changed.axis[0].limits.following_error_m = Some(0.004);
-    rig.controller_mut().reload(changed, 55.0, &mut |_| {});
+    rig.controller_mut().reload(changed, 120.0, &mut |_| {});
     assert_eq!(rig.controller().axes()[0].learned(), learned);
 
     // The file written at shutdown gives a fresh daemon the same start.

@@ -44,7 +44,7 @@ fn error_names_file_table_key_and_rule() {
         err.to_string(),
         "config/plants/solenoid.toml: [spring] stiffness_n_per_m must be > 0, got -3"
     );
-    let bad = text.replace("coulomb_pos_n = 0.2", "coulomb_pos_newton = 0.2");
+    let bad = text.replace("coulomb_pos_n = 0.55", "coulomb_pos_newton = 0.55");
     let msg = plant_from_str(&bad, "x.toml").err().unwrap().to_string();
     assert!(
         msg.contains("x.toml: [coulomb]") && msg.contains("coulomb_pos_newton"),

@@ -65,11 +65,11 @@ fn rests_on_its_stop_below_the_pretension_threshold() {
     let mut p = plant();
     hold(p.as_mut(), 0.0, 1.0);
     assert_eq!(p.truth().position, 0.0);
-    // (F_0 + F_S) / K = 1.98 V: just below, nothing moves.
-    hold(p.as_mut(), 1.95, 2.0);
+    // (F_0 + F_S) / K = 3.83 N / 1.63 N/V = 2.35 V: just below, nothing moves.
+    hold(p.as_mut(), 2.3, 2.0);
     assert_eq!(p.truth().position, 0.0);
     assert_eq!(p.truth().velocity, 0.0);
-    hold(p.as_mut(), 2.1, 2.0);
+    hold(p.as_mut(), 2.4, 2.0);
     assert!(p.truth().position > 0.0);
     assert!((p.time_s() - 5.0).abs() < 1e-9);
 }

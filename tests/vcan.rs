@@ -15,6 +15,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
+/// How close the reference solenoid holds a set-point: its guide sticks (breakaway 0.83 N over
+/// Coulomb 0.55 N, the paper's Fig. 17), so steps end at a stick-slip offset, with the adaptive
+/// compensation inside the paper's 25-50 µm.
+const HELD_M: f64 = 50e-6;
 const PERIOD: f64 = 0.0025;
 /// Cycles the loop test runs: 6 s at 2.5 ms, counted in SYNCs (a guest that overran some
 /// periods runs them all the same, later).
@@ -324,7 +328,7 @@ fn daemon_and_simulated_node_close_the_loop_on_vcan() {
                 mean * 1e3,
                 err * 1e6
             );
-            assert!(err.abs() < 25e-6, "setpoint {target}: position {mean}");
+            assert!(err.abs() < HELD_M, "setpoint {target}: position {mean}");
         }
 
         // The fault: injected before the sim's SYNC number FAULT_AT_S / PERIOD; the EMCY and the
@@ -1151,8 +1155,8 @@ fn one_daemon_serves_two_axes_from_one_cycle() {
     let commands_b = frames.iter().filter(|(_, f)| f.id() == 0x211).count();
     eprintln!("vcan: two axes, one cycle: {syncs} SYNC, commands {commands_a}/{commands_b}, axis 16 at {a:.5} m (setpoint 0.010), axis 17 at {b:.5} m (setpoint 0.008)");
     assert!(commands_a as f64 >= 0.98 * syncs as f64 && commands_b as f64 >= 0.98 * syncs as f64);
-    assert!((a - 0.010).abs() < 25e-6, "axis 16 at {a}");
-    assert!((b - 0.008).abs() < 25e-6, "axis 17 at {b}");
+    assert!((a - 0.010).abs() < HELD_M, "axis 16 at {a}");
+    assert!((b - 0.008).abs() < HELD_M, "axis 17 at {b}");
 }
 
 #[test]
@@ -1273,7 +1277,10 @@ fn a_second_bus_gets_its_own_cycle_thread() {
                 "vcan: {iface}: the capture shows {longest_miss} late periods where the cycle saw {stale} stale"
             );
         }
-        assert!((mean - target).abs() < 25e-6, "{iface}: {mean}; {faults:?}");
+        assert!(
+            (mean - target).abs() < HELD_M,
+            "{iface}: {mean}; {faults:?}"
+        );
     }
     for iface in ["vcan0", "vcan1"] {
         let file = dir.path().join(format!("run-{iface}.mcap"));

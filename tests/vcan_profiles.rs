@@ -543,7 +543,9 @@ fn a_cia401_module_closes_the_loop_of_the_solenoid_on_vcan() {
             target * 1e3,
             mean * 1e3
         );
-        assert!((mean - target).abs() < 30e-6, "{target}: {mean}");
+        // The reference solenoid sticks (the paper's Fig. 17 friction): steps end at a
+        // stick-slip offset, inside the paper's 25-50 µm with adaptive compensation.
+        assert!((mean - target).abs() < 50e-6, "{target}: {mean}");
     }
     let last = inputs.last().expect("inputs").1;
     assert!(

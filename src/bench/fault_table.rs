@@ -53,7 +53,7 @@ impl Default for FaultTableOptions {
         FaultTableOptions {
             windows: 8,
             warmup_s: 2.0,
-            max_run_s: 150.0,
+            max_run_s: 400.0,
         }
     }
 }

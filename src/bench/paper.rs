@@ -22,9 +22,6 @@ use crate::supervise::{
 
 /// The shipped solenoid plant (`config/plants/solenoid.toml`).
 pub const SOLENOID_PLANT: &str = include_str!("../../config/plants/solenoid.toml");
-/// The solenoid with the friction of the paper's small-step experiment
-/// (`config/plants/solenoid_fig17.toml`): the small-step and identification rows run on it.
-pub const SOLENOID_FIG17_PLANT: &str = include_str!("../../config/plants/solenoid_fig17.toml");
 /// The shipped pneumatic plant (`config/plants/pneumatic.toml`).
 pub const PNEUMATIC_PLANT: &str = include_str!("../../config/plants/pneumatic.toml");
 
@@ -201,8 +198,10 @@ pub struct SmallStepResult {
     pub dither: (f64, f64),
 }
 
-/// The adaptive friction compensation of `config/solenoid.toml`, starting from the feed-forward
-/// values `α F_C / (K_I K_Mag) = 0.8 · 0.55 N / 1.63 N/V = 0.27 V`.
+/// The small-step bench's adaptive friction compensation: the reference model and bands of
+/// `config/solenoid.toml`, twice its adaptation gain and a limit of 1 V (the bench's friction
+/// does not rise), starting from its feed-forward values
+/// `α F_C / (K_I K_Mag) = 0.8 · 0.55 N / 1.63 N/V = 0.27 V`.
 pub fn solenoid_adaptive_friction_config() -> AdaptiveFrictionConfig {
     AdaptiveFrictionConfig {
         period_s: SOLENOID_PERIOD_S,
@@ -213,6 +212,7 @@ pub fn solenoid_adaptive_friction_config() -> AdaptiveFrictionConfig {
             error_deadband_m: 3e-6,
             model_deadband_m: 10e-6,
             settled_band_m: 20e-6,
+            step_max_m: 1e-3,
         },
         initial_pos: 0.27,
         initial_neg: 0.27,
@@ -316,13 +316,9 @@ pub fn solenoid_small_step_with(
 }
 
 /// [`solenoid_small_step_on`] on the solenoid with the paper's friction
-/// ([`SOLENOID_FIG17_PLANT`]).
+/// ([`SOLENOID_PLANT`]).
 pub fn solenoid_small_step(mode: SmallStepMode) -> Result<SmallStepResult, BenchError> {
-    solenoid_small_step_on(
-        SOLENOID_FIG17_PLANT,
-        "config/plants/solenoid_fig17.toml",
-        mode,
-    )
+    solenoid_small_step_on(SOLENOID_PLANT, "config/plants/solenoid.toml", mode)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -801,7 +797,7 @@ fn model_band(paper: f64) -> Band {
 /// The identification rows: each direction's poles and gain against eq. (26), (27).
 fn identification_rows(rows: &mut Vec<PaperRow>) {
     let name = "solenoid identified";
-    match identify_solenoid_on(SOLENOID_FIG17_PLANT, "config/plants/solenoid_fig17.toml") {
+    match identify_solenoid_on(SOLENOID_PLANT, "config/plants/solenoid.toml") {
         Ok(id) => {
             for (dir, ours, paper, n) in [
                 ("G+", id.positive, ThirdOrder::PAPER_POS, id.samples.0),

@@ -8,9 +8,11 @@
 //!   approached the present set-point (held once it has settled):
 //!   `U_comp+(k) = U_comp+(k-1) - γ T_0 e_M(k)` while `d = +`,
 //!   `U_comp-(k) = U_comp-(k-1) + γ T_0 e_M(k)` while `d = -`, both held in `[0, U_max]`;
-//!   adaptation only once the model has settled (`|w - y_M| < s_M`) and `|e_M| > e_M,db`, so the
-//!   linear transient and sensor noise are not taken for friction, and not for the rest of a
-//!   set-point whose transient already carried the position past it by more than `e_M,db`.
+//!   adaptation only once the model has settled (`|w - y_M| < s_M`), while the position stands
+//!   (it moved less than `e_M,db` in the period) and `|e_M| > e_M,db`, so the linear transient,
+//!   a drive still travelling and sensor noise are not taken for friction; and not for the rest
+//!   of a set-point whose transient already carried the position past it by more than `e_M,db`,
+//!   or that the position slipped past after it had stuck short.
 //!
 //! The law is two-sided. A position stuck short of the settled model (`d e_M < 0`) says the
 //! compensation of the approach direction is too small and raises it; a position pushed past the
@@ -21,6 +23,16 @@
 //! supervision then reads as a friction rise. An overshoot the linear transient made before the
 //! model settled (the loop's own dynamics, stuck there by friction) says nothing about the
 //! compensation, hence the freeze for that set-point.
+//!
+//! With static friction above the moving one (`F_S > F_C`) a position stuck short of the
+//! set-point is freed by the integral part only at the breakaway force, and the excess
+//! `F_S - F_C` then carries it past the set-point: a slip that says the approach compensation was
+//! too small, not too large. Lowering it there would undo what the stuck phase taught, and with
+//! strong stiction every step ends that way, so both levels would fall to zero. A slip after a
+//! stuck phase therefore freezes the adaptation for that set-point too; an overshoot of a
+//! position that never stuck short (the compensation itself carried it over) still lowers it.
+//! Only standing positions adapt: while the drive is still travelling (a large step at its
+//! limit) the position lags the fast model without any friction in the way.
 //!
 //! External loads look exactly like friction to this law: a load that pulls against the `+`
 //! direction raises `U_comp+` like friction would, and when the load goes away (or reverses) the
@@ -68,8 +80,22 @@ pub struct AdaptiveFriction {
     approach: f64,
     /// The set-point of the last step, to tell a new one.
     last_setpoint: f64,
-    /// The transient of the present set-point carried the position past it: no adaptation.
-    transient_overshoot: bool,
+    /// The present set-point says no more about the compensation: its transient carried the
+    /// position past it, or the position slipped past it after sticking short.
+    frozen: bool,
+    /// The position stood short of the settled model at this set-point.
+    stuck_short: bool,
+    /// Where the position stopped, to tell a standing position.
+    last_position: f64,
+    /// How long the position has stood (within `e_db` of where it stopped), s.
+    standing_s: f64,
+    /// Side of the set-point (`+1` below, `-1` above, beyond `e_M,db`) last seen, `0` before.
+    side: f64,
+    /// The position stood stuck off the set-point since it last crossed it.
+    stood_off: bool,
+    /// Direction whose compensation carried the position over the set-point at the last
+    /// crossing (after the model settled, without a stuck phase before it), `0` for none.
+    carried: f64,
     comp_pos: f64,
     comp_neg: f64,
 }
@@ -102,7 +128,13 @@ impl AdaptiveFriction {
             y_model: None,
             approach: 0.0,
             last_setpoint: f64::NAN,
-            transient_overshoot: false,
+            frozen: false,
+            stuck_short: false,
+            last_position: f64::NAN,
+            standing_s: 0.0,
+            side: 0.0,
+            stood_off: false,
+            carried: 0.0,
             comp_pos: c.initial_pos,
             comp_neg: c.initial_neg,
             config,
@@ -131,12 +163,29 @@ impl AdaptiveFriction {
         self.y_model = None;
         self.approach = 0.0;
         self.last_setpoint = f64::NAN;
-        self.transient_overshoot = false;
+        self.frozen = false;
+        self.stuck_short = false;
+        self.last_position = f64::NAN;
+        self.standing_s = 0.0;
+        self.side = 0.0;
+        self.stood_off = false;
+        self.carried = 0.0;
+    }
+
+    /// Changes the level of direction `d` (`+1`: `U_comp+`, `-1`: `U_comp-`) by `delta`, held in
+    /// `[0, U_max]`.
+    fn raise(&mut self, d: f64, delta: f64) {
+        let max = self.config.params.compensation_max;
+        if d > 0.0 {
+            self.comp_pos = (self.comp_pos + delta).clamp(0.0, max);
+        } else if d < 0.0 {
+            self.comp_neg = (self.comp_neg + delta).clamp(0.0, max);
+        }
     }
 
     /// One step with set-point `w` and measured position `y`.
     pub fn step(&mut self, setpoint: f64, position: f64) -> AdaptiveFrictionOutput {
-        let c = &self.config.params;
+        let c = self.config.params.clone();
         let period_s = self.config.period_s;
         if !(setpoint.is_finite() && position.is_finite()) {
             return AdaptiveFrictionOutput {
@@ -152,25 +201,69 @@ impl AdaptiveFriction {
         let e_m = position - y_m;
         let e_w = setpoint - position;
         let settled = (setpoint - y_m).abs() < c.settled_band_m;
+        // Standing: within e_db of where it stopped (NaN before the first step: not standing).
+        if (position - self.last_position).abs() <= c.error_deadband_m {
+            self.standing_s += period_s;
+        } else {
+            self.last_position = position;
+            self.standing_s = 0.0;
+        }
+        // Stuck, not turning or creeping: a stop the loop makes on its way (a large step's
+        // armature halting while the current catches up) ends within the model's time constant,
+        // and a creep covers more than e_db in it.
+        let stuck = self.standing_s >= c.model_time_constant_s;
         if setpoint != self.last_setpoint {
+            self.frozen = (setpoint - self.last_setpoint).abs() > c.step_max_m;
             self.last_setpoint = setpoint;
-            self.transient_overshoot = false;
+            self.stuck_short = false;
+            self.carried = 0.0;
         }
         if !settled {
             // d = sign(w - y_M): the direction of the move the model is making.
             self.approach = (setpoint - y_m).signum();
             if self.approach * e_w < -c.model_deadband_m {
-                self.transient_overshoot = true;
+                self.frozen = true;
             }
         }
-        if settled && !self.transient_overshoot && e_m.abs() > c.model_deadband_m {
-            // ΔU_comp± = ∓γ T_0 e_M: short of the model raises, pushed past it lowers.
-            let step = c.adaptation_gain_per_m_s * period_s * e_m;
-            if self.approach > 0.0 {
-                self.comp_pos = (self.comp_pos - step).clamp(0.0, c.compensation_max);
-            } else if self.approach < 0.0 {
-                self.comp_neg = (self.comp_neg + step).clamp(0.0, c.compensation_max);
-            }
+        // Which side of the set-point the position is on, beyond e_M,db: +1 below, -1 above.
+        let side = if e_w > c.model_deadband_m {
+            1.0
+        } else if e_w < -c.model_deadband_m {
+            -1.0
+        } else {
+            0.0
+        };
+        if side != 0.0 && side != self.side {
+            // Crossed the set-point moving in the direction -side. After a stuck phase it is a
+            // breakaway slip; otherwise the compensation of that direction carried it over.
+            self.carried = if settled && self.side != 0.0 && !self.stood_off {
+                -side
+            } else {
+                0.0
+            };
+            self.side = side;
+            self.stood_off = false;
+        }
+        if stuck && side != 0.0 {
+            self.stood_off = true;
+        }
+        // d e_M: < 0 stuck short of the model, > 0 past it.
+        let past = self.approach * e_m;
+        if settled && past > c.model_deadband_m && self.stuck_short {
+            // Broke away from short of the set-point and slipped past it: stiction, not the
+            // compensation.
+            self.frozen = true;
+        }
+        let rate = c.adaptation_gain_per_m_s * period_s;
+        if settled && stuck && !self.frozen && past < -c.model_deadband_m {
+            self.stuck_short = true;
+            // ΔU_comp,d = γ T_0 |e_M|: stuck short of the model, the approach's level rises.
+            self.raise(self.approach, rate * e_m.abs());
+        } else if settled && self.carried != 0.0 && side == -self.carried {
+            // ΔU_comp,d = -γ T_0 |e_M|: carried past the set-point by the compensation of the
+            // crossing's direction, that level falls, whether the position stands there or the
+            // loop hunts around the set-point.
+            self.raise(self.carried, -rate * e_m.abs());
         }
         // U_comp(k) = U_comp± sign(e_w(k)), zero within the error deadband.
         let compensation = if e_w > c.error_deadband_m {
@@ -204,6 +297,7 @@ mod tests {
                 error_deadband_m: 3e-6,
                 model_deadband_m: 5e-6,
                 settled_band_m: 20e-6,
+                step_max_m: 1.0,
             },
             initial_pos: 0.0,
             initial_neg: 0.0,
@@ -311,5 +405,74 @@ mod tests {
         let (pos, neg) = f.compensation_values();
         assert_eq!(pos, 0.1);
         assert!(neg > 0.15, "U_comp- {neg}");
+    }
+
+    #[test]
+    fn a_slip_past_the_set_point_after_sticking_short_does_not_lower_the_compensation() {
+        let mut f = AdaptiveFriction::new(AdaptiveFrictionConfig {
+            initial_pos: 0.2,
+            initial_neg: 0.2,
+            ..cfg()
+        })
+        .expect("valid");
+        for _ in 0..10 {
+            f.step(0.0, 0.0);
+        }
+        // A step up; the position stops 40 µm short once the model has settled ...
+        for _ in 0..200 {
+            f.step(0.001, 0.00096);
+        }
+        let raised = f.compensation_values().0;
+        assert!(raised > 0.2 + 0.01, "U_comp+ {raised}");
+        // ... breaks away and slips 40 µm past, where static friction holds it.
+        for k in 0..400 {
+            f.step(0.001, 0.00096 + 80e-6 * f64::from((k + 1).min(4)) / 4.0);
+        }
+        assert_eq!(f.compensation_values().0, raised);
+        // The next set-point's overshoot without a stuck phase lowers it again.
+        settle_from_below(&mut f, 0.002);
+        for _ in 0..200 {
+            f.step(0.002, 0.00205);
+        }
+        assert!(f.compensation_values().0 < raised - 0.01);
+    }
+
+    #[test]
+    fn a_position_still_travelling_behind_the_settled_model_adapts_nothing() {
+        let mut f = AdaptiveFriction::new(cfg()).expect("valid");
+        for _ in 0..10 {
+            f.step(0.0, 0.0);
+        }
+        // A drive at its limit: 20 µm per period (8 mm/s) towards a set-point 10 mm away, long
+        // after the 20 ms model settled.
+        for k in 0..400 {
+            f.step(0.01, 20e-6 * f64::from(k));
+        }
+        assert_eq!(f.compensation_values(), (0.0, 0.0));
+    }
+
+    #[test]
+    fn a_large_step_stuck_short_teaches_nothing() {
+        let mut f = AdaptiveFriction::new(AdaptiveFrictionConfig {
+            params: AdaptiveFrictionSection {
+                step_max_m: 1e-3,
+                ..cfg().params
+            },
+            ..cfg()
+        })
+        .expect("valid");
+        for _ in 0..10 {
+            f.step(0.0, 0.0);
+        }
+        // 5 mm, stuck 300 µm short: the loop's stop, not the compensation's.
+        for _ in 0..400 {
+            f.step(0.005, 0.0047);
+        }
+        assert_eq!(f.compensation_values(), (0.0, 0.0));
+        // A small step from there, stuck short: adapts.
+        for _ in 0..400 {
+            f.step(0.0055, 0.0054);
+        }
+        assert!(f.compensation_values().0 > 0.05);
     }
 }

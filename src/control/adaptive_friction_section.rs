@@ -39,5 +39,12 @@ declare_section! {
         settled_band_m: f64 = {
             unit: "m", min: POSITIVE_MIN, max: 1.0, access: PreOperational, doc: "",
         },
+        /// `Δw_max`: set-point changes larger than this adapt nothing, m: the stops of a large
+        /// step are the loop's transient, which a compensation held by the controller's
+        /// integral away from the set-point cannot change.
+        step_max_m: f64 = {
+            unit: "m", min: 0.0, max: 1e3, access: PreOperational,
+            doc: "set-point changes larger than this adapt nothing", default: 1e3,
+        },
     }
 }

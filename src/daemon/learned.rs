@@ -108,6 +108,7 @@ mod tests {
                 error_deadband_m: 1e-6,
                 model_deadband_m: 1e-6,
                 settled_band_m: 1e-5,
+                step_max_m: 1e-3,
             },
             initial_pos: 0.1,
             initial_neg: 0.1,

@@ -311,13 +311,18 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
     };
     if spec.family == Family::MotorGear {
         super::regress_gear::in_motion(spec, raw, d, &mut terms, &load_on)?;
-    } else if spec.family == Family::Pneumatic {
+    } else if spec.family == Family::Pneumatic || (spec.family == Family::Solenoid && sticks(d)) {
         // A valve under a proportional loop pushes the piston in hops at small duty, where the
         // chamber's lag and the filter's reach blur each stop: on the independent simulator the
         // complete model was given a dead zone at 2 ms samples (2 seeds of 3), none with the
-        // mask (3 of 3), the hidden-effect verdicts unchanged. Not on the other one-body
-        // families: the mask drops the slow slides in which a Stribeck friction shows (the servo
-        // axis' stribeck case went from 1 seed of 3 to none).
+        // mask (3 of 3), the hidden-effect verdicts unchanged. The solenoid's guide sticks
+        // (breakaway 1.5 times Coulomb) and its PIDT1 moves it in stick-slip hops: unmasked,
+        // the held samples' static friction made `actuator sim --family solenoid` name
+        // hysteresis before coulomb and a recording of the daemon position_stiffness; masked,
+        // both name coulomb. Only where the record sticks: a body that never stands gains
+        // nothing, and its coil's time constant came out at its bound (2 ms for 5) with the
+        // mask. Not on the servo axis: the mask drops the slow slides in which a Stribeck
+        // friction shows (its stribeck case went from 1 seed of 3 to none).
         super::motion::in_motion(raw, d, &mut terms, &|light, t| {
             body_drive_terms(spec, raw, light, t)?;
             load_on(light, t)
@@ -338,6 +343,16 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
         rest_filter: (0.25 * d.cutoff_hz, d.dt),
         dry_scale,
     })
+}
+
+/// Share of a record's samples standing where the model's friction must hold the body, above
+/// which the record counts as sticking.
+const STICKING_SHARE: f64 = 0.05;
+
+/// The body sticks in this record: at least [`STICKING_SHARE`] of its samples stand between the
+/// extremes of its travel (an end stop aside).
+fn sticks(d: &Prepared) -> bool {
+    d.standstill.len() as f64 >= STICKING_SHARE * d.y.len() as f64
 }
 
 /// What the effects of a model make of the drive of a one-body family: its factor from the

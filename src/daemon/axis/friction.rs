@@ -56,9 +56,17 @@ impl FrictionCompensation {
         })
     }
 
-    /// One control cycle with the reference `r`, the position `y`, the error the controller sees
-    /// and the supply (for the operating point): `(U_comp, u_d)` to add to the command.
-    pub fn step(&mut self, reference: f64, position: f64, error: f64, supply: f64) -> (f64, f64) {
+    /// One control cycle with the reference `r`, the position `y`, the error the controller sees,
+    /// the supply (for the operating point) and the supply schedule's gain factor:
+    /// `(U_comp, u_d)` to add to the command.
+    pub fn step(
+        &mut self,
+        reference: f64,
+        position: f64,
+        error: f64,
+        supply: f64,
+        gain_factor: f64,
+    ) -> (f64, f64) {
         if let (Some(m), Some(a)) = (self.operating_points.as_mut(), self.adaptive.as_mut()) {
             let op = OperatingPoint {
                 position_m: position,
@@ -76,9 +84,12 @@ impl FrictionCompensation {
             .dither
             .as_mut()
             .map_or(0.0, |d| d.step(reference, position));
-        self.applied = compensation;
-        self.applied_dither = dither;
-        (compensation, dither)
+        // U_comp± and the dither are forces in command units at the nominal supply: a lower
+        // supply needs the command scaled as the controller's gains are, or the compensation
+        // falls short of the same friction.
+        self.applied = gain_factor * compensation;
+        self.applied_dither = gain_factor * dither;
+        (self.applied, self.applied_dither)
     }
 
     /// The arrival relief of this cycle for the set-point `w` (the target, not the rate-limited

@@ -540,8 +540,16 @@ impl Axis {
                     CommandKind::Duty => self.supply_pressure_pa,
                     _ => self.sensor.supply_voltage_v,
                 };
-                let (comp, dither) = self.friction.step(self.reference, y, e, supply);
-                arrival_relief = self.friction.arrival_relief(self.setpoint, y);
+                let (comp, dither) = self.friction.step(
+                    self.reference,
+                    y,
+                    e,
+                    supply,
+                    self.supply_schedule.gain_factor(),
+                );
+                // R± is stored output at the nominal supply, scaled as the compensation is.
+                arrival_relief = self.supply_schedule.gain_factor()
+                    * self.friction.arrival_relief(self.setpoint, y);
                 self.law.shift_output(arrival_relief);
                 self.relief_hold |= arrival_relief != 0.0;
                 self.last_command = self.law.command(

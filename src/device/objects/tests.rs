@@ -166,6 +166,7 @@ fn command_entries_carry_the_unit_of_the_axis_command() {
         error_deadband_m: 0.0,
         model_deadband_m: 0.0,
         settled_band_m: 1e-3,
+        step_max_m: 1e-3,
     };
     // command, its code, coefficient q_j, force gain
     let expected = [
