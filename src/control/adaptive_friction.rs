@@ -4,35 +4,35 @@
 //! direction; the compensation applied is `U_comp(k) = U_comp± sign(e_w(k))`.
 //!
 //! - reference model, first order: `y_M(k) = a y_M(k-1) + (1 - a) w(k)`, `a = exp(-T_0 / T_M)`;
-//! - friction controller, integral, for the direction `d = sign(w - y_M)` in which the model
-//!   approached the present set-point (held once it has settled):
-//!   `U_comp+(k) = U_comp+(k-1) - γ T_0 e_M(k)` while `d = +`,
-//!   `U_comp-(k) = U_comp-(k-1) + γ T_0 e_M(k)` while `d = -`, both held in `[0, U_max]`;
-//!   adaptation only once the model has settled (`|w - y_M| < s_M`), while the position stands
-//!   (it moved less than `e_M,db` in the period) and `|e_M| > e_M,db`, so the linear transient,
-//!   a drive still travelling and sensor noise are not taken for friction; and not for the rest
-//!   of a set-point whose transient already carried the position past it by more than `e_M,db`,
-//!   or that the position slipped past after it had stuck short.
+//! - friction controller, integral on `|e_M|`, once the model has settled (`|w - y_M| < s_M`):
+//!   `U_comp,d(k) = U_comp,d(k-1) + γ T_0 |e_M(k)|` while the position stands stuck short of
+//!   the set-point approached in direction `d = sign(w - y_M)` (held once the model settled);
+//!   `U_comp,c(k) = U_comp,c(k-1) - γ T_0 |e_M(k)|` while it is past the set-point after a
+//!   crossing in direction `c` that the compensation made; both held in `[0, U_max]`, and
+//!   nothing within `|e_M| <= e_M,db` (sensor noise, the linear model's own error).
 //!
-//! The law is two-sided. A position stuck short of the settled model (`d e_M < 0`) says the
-//! compensation of the approach direction is too small and raises it; a position pushed past the
-//! set-point after the model settled (`d e_M > 0`) says that compensation carried it over and
-//! lowers it. Choosing the adapted direction by `sign(e_w)` instead would charge an overshoot to
-//! the opposite compensation, where it reads as "too small" again: both values could then only
-//! grow, and noise and the loop's small limit cycles ratchet them up to `U_max`, which the
-//! supervision then reads as a friction rise. An overshoot the linear transient made before the
-//! model settled (the loop's own dynamics, stuck there by friction) says nothing about the
-//! compensation, hence the freeze for that set-point.
+//! The law is two-sided: stuck short says the approach's compensation is too small, carried over
+//! says the crossing direction's is too large. Choosing the adapted direction by `sign(e_w)`
+//! instead would charge an overshoot to the opposite compensation, where it reads as "too small"
+//! again: both values could then only grow, and noise and the loop's small limit cycles ratchet
+//! them up to `U_max`, which the supervision then reads as a friction rise.
 //!
-//! With static friction above the moving one (`F_S > F_C`) a position stuck short of the
-//! set-point is freed by the integral part only at the breakaway force, and the excess
-//! `F_S - F_C` then carries it past the set-point: a slip that says the approach compensation was
-//! too small, not too large. Lowering it there would undo what the stuck phase taught, and with
-//! strong stiction every step ends that way, so both levels would fall to zero. A slip after a
-//! stuck phase therefore freezes the adaptation for that set-point too; an overshoot of a
-//! position that never stuck short (the compensation itself carried it over) still lowers it.
-//! Only standing positions adapt: while the drive is still travelling (a large step at its
-//! limit) the position lags the fast model without any friction in the way.
+//! What does not count, and why:
+//! - **Not stuck.** A position is stuck when it stayed within `e_db` of where it stopped for at
+//!   least `T_M`: a turning point, a large step's halt while the current catches up, or a creep
+//!   towards the set-point is not friction holding it.
+//! - **A breakaway slip.** With static friction above the moving one (`F_S > F_C`) a position
+//!   stuck short is freed by the integral part only at the breakaway force, and the excess
+//!   `F_S - F_C` carries it past the set-point: a slip that says the approach compensation was
+//!   too small, not too large. A crossing after a stuck phase lowers nothing, and nothing more
+//!   is raised at that set-point (with strong stiction every step ends that way; lowering there
+//!   took both levels to zero).
+//! - **The transient's overshoot.** An overshoot the linear transient made before the model
+//!   settled is the loop's own dynamics: nothing is raised for that set-point.
+//! - **Large steps** (`|Δw| > Δw_max`): such a step stalls on its way, and away from the
+//!   set-point the controller's integral holds a constant compensation as part of its output,
+//!   so raising it there helps nothing; nothing is raised for that set-point. A crossing that
+//!   the compensation made still lowers, also while the loop hunts around the set-point.
 //!
 //! External loads look exactly like friction to this law: a load that pulls against the `+`
 //! direction raises `U_comp+` like friction would, and when the load goes away (or reverses) the
@@ -80,8 +80,8 @@ pub struct AdaptiveFriction {
     approach: f64,
     /// The set-point of the last step, to tell a new one.
     last_setpoint: f64,
-    /// The present set-point says no more about the compensation: its transient carried the
-    /// position past it, or the position slipped past it after sticking short.
+    /// Nothing more is raised at the present set-point: it is a large step, its transient
+    /// carried the position past it, or the position slipped past it after sticking short.
     frozen: bool,
     /// The position stood short of the settled model at this set-point.
     stuck_short: bool,
@@ -174,7 +174,7 @@ impl AdaptiveFriction {
 
     /// Changes the level of direction `d` (`+1`: `U_comp+`, `-1`: `U_comp-`) by `delta`, held in
     /// `[0, U_max]`.
-    fn raise(&mut self, d: f64, delta: f64) {
+    fn adapt(&mut self, d: f64, delta: f64) {
         let max = self.config.params.compensation_max;
         if d > 0.0 {
             self.comp_pos = (self.comp_pos + delta).clamp(0.0, max);
@@ -258,12 +258,12 @@ impl AdaptiveFriction {
         if settled && stuck && !self.frozen && past < -c.model_deadband_m {
             self.stuck_short = true;
             // ΔU_comp,d = γ T_0 |e_M|: stuck short of the model, the approach's level rises.
-            self.raise(self.approach, rate * e_m.abs());
+            self.adapt(self.approach, rate * e_m.abs());
         } else if settled && self.carried != 0.0 && side == -self.carried {
             // ΔU_comp,d = -γ T_0 |e_M|: carried past the set-point by the compensation of the
             // crossing's direction, that level falls, whether the position stands there or the
             // loop hunts around the set-point.
-            self.raise(self.carried, -rate * e_m.abs());
+            self.adapt(self.carried, -rate * e_m.abs());
         }
         // U_comp(k) = U_comp± sign(e_w(k)), zero within the error deadband.
         let compensation = if e_w > c.error_deadband_m {
@@ -474,5 +474,34 @@ mod tests {
             f.step(0.0055, 0.0054);
         }
         assert!(f.compensation_values().0 > 0.05);
+    }
+
+    #[test]
+    fn hunting_around_the_set_point_after_a_large_step_lowers_both_levels() {
+        let mut f = AdaptiveFriction::new(AdaptiveFrictionConfig {
+            params: AdaptiveFrictionSection {
+                step_max_m: 1e-3,
+                ..cfg().params
+            },
+            initial_pos: 0.4,
+            initial_neg: 0.4,
+            ..cfg()
+        })
+        .expect("valid");
+        for _ in 0..10 {
+            f.step(0.0, 0.0);
+        }
+        // A 5 mm step; once the model has settled the position swings 60 µm either side of the
+        // set-point every 8 periods, never standing: the compensation drives a relay cycle.
+        for _ in 0..100 {
+            f.step(0.005, 0.005);
+        }
+        for k in 0..800 {
+            let y = if (k / 8) % 2 == 0 { 0.00494 } else { 0.00506 };
+            f.step(0.005, y + 1e-6 * f64::from(k % 8));
+        }
+        let (pos, neg) = f.compensation_values();
+        // 60 µm for 8 periods per swing: γ T_0 |e_M| 8 = 1.2 mV per swing and direction.
+        assert!(pos < 0.35 && neg < 0.35, "U_comp+ {pos}, U_comp- {neg}");
     }
 }
