@@ -198,25 +198,21 @@ pub struct SmallStepResult {
     pub dither: (f64, f64),
 }
 
-/// The small-step bench's adaptive friction compensation: the reference model and bands of
-/// `config/solenoid.toml`, twice its adaptation gain and a limit of 1 V (the bench's friction
-/// does not rise), starting from its feed-forward values
+/// The adaptive friction compensation the daemon ships (`[axis.adaptive_friction]` of
+/// `config/solenoid.toml`), starting from its feed-forward values
 /// `α F_C / (K_I K_Mag) = 0.8 · 0.55 N / 1.63 N/V = 0.27 V`.
-pub fn solenoid_adaptive_friction_config() -> AdaptiveFrictionConfig {
-    AdaptiveFrictionConfig {
-        period_s: SOLENOID_PERIOD_S,
-        params: crate::control::AdaptiveFrictionSection {
-            model_time_constant_s: 0.015,
-            adaptation_gain_per_m_s: 20_000.0,
-            compensation_max: 1.0,
-            error_deadband_m: 3e-6,
-            model_deadband_m: 10e-6,
-            settled_band_m: 20e-6,
-            step_max_m: 1e-3,
-        },
-        initial_pos: 0.27,
-        initial_neg: 0.27,
-    }
+pub fn solenoid_adaptive_friction_config() -> Result<AdaptiveFrictionConfig, BenchError> {
+    let name = "config/solenoid.toml";
+    let config = crate::daemon::Config::from_toml(
+        super::fault_table::SOLENOID_CONFIG,
+        std::path::Path::new(name),
+    )
+    .map_err(|e| BenchError::Failed(e.to_string()))?;
+    config
+        .axis
+        .first()
+        .and_then(|a| a.adaptive_friction_config(SOLENOID_PERIOD_S))
+        .ok_or_else(|| BenchError::Failed(format!("{name}: no [axis.adaptive_friction]")))
 }
 
 /// The self-adapting dither of the small-step experiment.
@@ -256,7 +252,7 @@ pub fn solenoid_small_step_on(
     name: &str,
     mode: SmallStepMode,
 ) -> Result<SmallStepResult, BenchError> {
-    solenoid_small_step_with(plant_text, name, mode, solenoid_adaptive_friction_config())
+    solenoid_small_step_with(plant_text, name, mode, solenoid_adaptive_friction_config()?)
 }
 
 /// [`solenoid_small_step_on`] with another adaptive friction compensation.
