@@ -12,6 +12,7 @@ use actuatord::lab::diagnose::{diagnose, DiagnoseOptions};
 use actuatord::lab::signals::prepare;
 use actuatord::lab::Model;
 
+mod lab_common;
 mod lab_indep;
 use lab_indep::{simulate_for, Hidden, Plant, Truth};
 
@@ -87,20 +88,8 @@ fn run(plant: Plant, hidden: Option<Hidden>, seed: u64, length: f64) -> Outcome 
     .expect("diagnosis runs");
     if std::env::var("LAB_VERBOSE").is_ok() {
         eprintln!("  {truth:?}");
-        for c in &dg.candidates {
-            eprintln!(
-                "    {:<20} NRMSE {:.4} drop {:+.3} held-out {:+.3} ΔBIC {:9.1} {} | {} | {:?}",
-                c.effect,
-                c.nrmse,
-                c.improvement,
-                c.holdout_improvement,
-                c.delta_bic,
-                if c.significant { "*" } else { " " },
-                c.evidence,
-                c.parameters
-            );
-        }
     }
+    lab_common::print_candidates(&dg);
     let right = dg.verdict.as_deref() == hidden.map(Hidden::lab_name);
     Outcome {
         label: format!(

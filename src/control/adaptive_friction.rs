@@ -304,6 +304,28 @@ mod tests {
         }
     }
 
+    /// The law of [`cfg`] starting from `initial` in both directions, adapting on set-point
+    /// changes up to `step_max_m`.
+    fn law(initial: f64, step_max_m: f64) -> AdaptiveFriction {
+        AdaptiveFriction::new(AdaptiveFrictionConfig {
+            params: AdaptiveFrictionSection {
+                step_max_m,
+                ..cfg().params
+            },
+            initial_pos: initial,
+            initial_neg: initial,
+            ..cfg()
+        })
+        .expect("valid")
+    }
+
+    /// At rest at 0 with the set-point 0.
+    fn rest_at_zero(f: &mut AdaptiveFriction) {
+        for _ in 0..10 {
+            f.step(0.0, 0.0);
+        }
+    }
+
     #[test]
     fn a_position_stuck_below_the_model_raises_the_positive_compensation() {
         let mut f = AdaptiveFriction::new(cfg()).expect("valid");
@@ -344,12 +366,7 @@ mod tests {
 
     #[test]
     fn pushed_past_the_set_point_after_settling_lowers_the_approach_compensation() {
-        let mut f = AdaptiveFriction::new(AdaptiveFrictionConfig {
-            initial_pos: 0.2,
-            initial_neg: 0.2,
-            ..cfg()
-        })
-        .expect("valid");
+        let mut f = law(0.2, 1.0);
         settle_from_below(&mut f, 0.001);
         assert_eq!(f.compensation_values(), (0.2, 0.2));
         let mut out = AdaptiveFrictionOutput::default();
@@ -365,12 +382,7 @@ mod tests {
 
     #[test]
     fn a_limit_cycle_around_the_set_point_does_not_ratchet_the_compensation_up() {
-        let mut f = AdaptiveFriction::new(AdaptiveFrictionConfig {
-            initial_pos: 0.1,
-            initial_neg: 0.1,
-            ..cfg()
-        })
-        .expect("valid");
+        let mut f = law(0.1, 1.0);
         settle_from_below(&mut f, 0.001);
         // 30 µm either side of the set-point, 20 cycles on each side, for 10 s.
         for k in 0..4000 {
@@ -384,16 +396,9 @@ mod tests {
 
     #[test]
     fn an_overshoot_of_the_transient_freezes_the_adaptation_until_the_next_set_point() {
-        let mut f = AdaptiveFriction::new(AdaptiveFrictionConfig {
-            initial_pos: 0.1,
-            initial_neg: 0.1,
-            ..cfg()
-        })
-        .expect("valid");
+        let mut f = law(0.1, 1.0);
         // At rest at 0, then a step up: the position jumps 50 µm past at once and sticks there.
-        for _ in 0..10 {
-            f.step(0.0, 0.0);
-        }
+        rest_at_zero(&mut f);
         for _ in 0..400 {
             f.step(0.001, 0.00105);
         }
@@ -409,15 +414,8 @@ mod tests {
 
     #[test]
     fn a_slip_past_the_set_point_after_sticking_short_does_not_lower_the_compensation() {
-        let mut f = AdaptiveFriction::new(AdaptiveFrictionConfig {
-            initial_pos: 0.2,
-            initial_neg: 0.2,
-            ..cfg()
-        })
-        .expect("valid");
-        for _ in 0..10 {
-            f.step(0.0, 0.0);
-        }
+        let mut f = law(0.2, 1.0);
+        rest_at_zero(&mut f);
         // A step up; the position stops 40 µm short once the model has settled ...
         for _ in 0..200 {
             f.step(0.001, 0.00096);
@@ -440,9 +438,7 @@ mod tests {
     #[test]
     fn a_position_still_travelling_behind_the_settled_model_adapts_nothing() {
         let mut f = AdaptiveFriction::new(cfg()).expect("valid");
-        for _ in 0..10 {
-            f.step(0.0, 0.0);
-        }
+        rest_at_zero(&mut f);
         // A drive at its limit: 20 µm per period (8 mm/s) towards a set-point 10 mm away, long
         // after the 20 ms model settled.
         for k in 0..400 {
@@ -453,17 +449,8 @@ mod tests {
 
     #[test]
     fn a_large_step_stuck_short_teaches_nothing() {
-        let mut f = AdaptiveFriction::new(AdaptiveFrictionConfig {
-            params: AdaptiveFrictionSection {
-                step_max_m: 1e-3,
-                ..cfg().params
-            },
-            ..cfg()
-        })
-        .expect("valid");
-        for _ in 0..10 {
-            f.step(0.0, 0.0);
-        }
+        let mut f = law(0.0, 1e-3);
+        rest_at_zero(&mut f);
         // 5 mm, stuck 300 µm short: the loop's stop, not the compensation's.
         for _ in 0..400 {
             f.step(0.005, 0.0047);
@@ -478,19 +465,8 @@ mod tests {
 
     #[test]
     fn hunting_around_the_set_point_after_a_large_step_lowers_both_levels() {
-        let mut f = AdaptiveFriction::new(AdaptiveFrictionConfig {
-            params: AdaptiveFrictionSection {
-                step_max_m: 1e-3,
-                ..cfg().params
-            },
-            initial_pos: 0.4,
-            initial_neg: 0.4,
-            ..cfg()
-        })
-        .expect("valid");
-        for _ in 0..10 {
-            f.step(0.0, 0.0);
-        }
+        let mut f = law(0.4, 1e-3);
+        rest_at_zero(&mut f);
         // A 5 mm step; once the model has settled the position swings 60 µm either side of the
         // set-point every 8 periods, never standing: the compensation drives a relay cycle.
         for _ in 0..100 {

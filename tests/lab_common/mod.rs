@@ -42,14 +42,15 @@ pub fn print_candidates(dg: &actuatord::lab::diagnose::Diagnosis) {
     }
     for c in &dg.candidates {
         eprintln!(
-            "    {:<20} NRMSE {:.4} drop {:+.3} held-out {:+.3} ΔBIC {:9.1} {} | {}",
+            "    {:<20} NRMSE {:.4} drop {:+.3} held-out {:+.3} ΔBIC {:9.1} {} | {} | {:?}",
             c.effect,
             c.nrmse,
             c.improvement,
             c.holdout_improvement,
             c.delta_bic,
             if c.significant { "*" } else { " " },
-            c.evidence
+            c.evidence,
+            c.parameters
         );
     }
 }
