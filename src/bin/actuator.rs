@@ -124,10 +124,18 @@ enum Command {
         /// Where the tuned configuration goes.
         #[arg(long)]
         out: PathBuf,
-        /// Design goal, e.g. bandwidth=30,damping=0.9,fast=3 (rad/s; default: the largest
-        /// bandwidth the drive and the sampling allow, damping 1).
-        #[arg(long, default_value = "")]
-        goal: actuatord::tune::Goal,
+        /// What to choose by: rms (the least RMS following error over the tour, predicted by
+        /// running the daemon's node on the fitted model), settling (the slowest step's
+        /// settling), overshoot; or one linear design: bandwidth (the largest whose linear
+        /// prediction keeps the command in the drive's range) or a goal such as
+        /// bandwidth=30,damping=0.9,fast=3 (rad/s). Every outcome is predicted and held
+        /// against the given configuration.
+        #[arg(long, default_value = "rms")]
+        goal: actuatord::tune::Aim,
+        /// The tour to predict on (initial_setpoint_m, [[setpoints]] at_s and position_m,
+        /// optionally seconds); default: the axis' own [[axis.setpoints]].
+        #[arg(long)]
+        tour: Option<PathBuf>,
         /// Largest half-width of a design parameter's 95 % interval, relative to its value.
         #[arg(long, default_value_t = 0.25)]
         max_spread: f64,
@@ -505,6 +513,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             config,
             out,
             goal,
+            tour,
             max_spread,
             axis,
             fault_table,
@@ -514,15 +523,19 @@ fn run(args: Args) -> anyhow::Result<()> {
             let text = std::fs::read_to_string(&config)
                 .map_err(|e| anyhow::anyhow!("{}: cannot read: {e}", config.display()))?;
             let options = actuatord::tune::TuneOptions {
-                goal,
+                goal: actuatord::tune::Goal::default(),
                 max_spread,
                 axis,
             };
+            let tour = tour
+                .as_deref()
+                .map(actuatord::tune::Tour::load)
+                .transpose()?;
             if fitted.model.spec.family == actuatord::physics::Family::Pneumatic {
                 anyhow::ensure!(
-                    goal == actuatord::tune::Goal::default(),
-                    "{}: --goal is the pole placement of the electromechanical drives; a pneumatic \
-                     axis keeps the closed-loop pole of its configured effort weight",
+                    goal == actuatord::tune::Aim::default() && tour.is_none(),
+                    "{}: --goal and --tour choose the electromechanical drives' pole placement; a \
+                     pneumatic axis keeps the closed-loop pole of its configured effort weight",
                     model.display()
                 );
                 anyhow::ensure!(
@@ -543,8 +556,9 @@ fn run(args: Args) -> anyhow::Result<()> {
                 .as_ref()
                 .map(|_| actuatord::tune::robust_plant_file(&fitted))
                 .transpose()?;
-            let mut tuning = actuatord::tune::tune(&fitted, &text, &config, &options)?;
-            if let Some(table) = &fault_table {
+            let mut choice =
+                actuatord::tune::choose(&fitted, &text, &config, &options, goal, tour)?;
+            if let (Some(table), Some(tuning)) = (&fault_table, choice.tuning_mut()) {
                 // The configuration names the table relative to its own folder.
                 let key = table
                     .file_name()
@@ -557,19 +571,29 @@ fn run(args: Args) -> anyhow::Result<()> {
                     table.display(),
                     out.display()
                 );
-                let summary = actuatord::tune::regenerate_fault_table(
-                    &mut tuning,
-                    &fitted,
-                    &out,
-                    table,
-                    &key,
-                )?;
+                let summary =
+                    actuatord::tune::regenerate_fault_table(tuning, &fitted, &out, table, &key)?;
                 print!("fault-symptom table for the fitted plant:\n{summary}");
             }
-            print!("{tuning}");
-            std::fs::write(&out, &tuning.text)
+            match choice.tuning() {
+                Some(tuning) => print!("{tuning}"),
+                None if fault_table.is_some() => {
+                    println!("no fault-symptom table written: the given configuration stays")
+                }
+                None => {}
+            }
+            print!("{choice}");
+            std::fs::write(&out, choice.text(&text))
                 .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", out.display()))?;
-            println!("wrote {}", out.display());
+            println!(
+                "wrote {}{}",
+                out.display(),
+                if choice.accepted {
+                    ""
+                } else {
+                    " (the given configuration, unchanged)"
+                }
+            );
             if let (Some(path), Some(text)) = (&robust_plant, robust) {
                 std::fs::write(path, text)
                     .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
@@ -888,27 +912,21 @@ fn sim_offline(
         .and_then(|()| std::io::Write::flush(&mut out))
         .map_err(|e| anyhow::anyhow!("{}: {e}", csv.display()))?;
     let c = rig.controller().counters();
-    // The tracking of the run: the following error against the reference the axis applied
-    // (after its rate limit), from the first set-point change on.
-    let start = config
-        .axis
-        .first()
-        .and_then(|a| a.setpoints.first())
-        .map_or(0.0, |s| s.at_s);
-    let errors: Vec<f64> = samples
-        .iter()
-        .filter(|s| s.record.t_s >= start)
-        .map(|s| s.record.following_error)
-        .collect();
-    let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len().max(1) as f64).sqrt();
+    // The tracking of the run, figured as `tune` predicts it: the following error against the
+    // reference the axis applied (after its rate limit), from the first set-point change on.
+    let axis = &config.axis[0];
+    let start = axis.setpoints.first().map_or(0.0, |s| s.at_s);
+    let records: Vec<_> = samples.iter().map(|s| s.record).collect();
+    let figures = actuatord::lockstep::TourFigures::of(&records, axis)
+        .map(|f| f.line(1e6, length_unit))
+        .unwrap_or_else(|| "no record after the first set-point change".to_string());
     eprintln!(
         "actuator sim: {} samples ({seconds} s at {} ms) written to {}; faults raised: {}; \
-         tracking from {start} s: RMS following error {:.1} {length_unit}",
+         tracking from {start} s: {figures}",
         samples.len(),
         config.cycle.period_s * 1e3,
         csv.display(),
         c.faults_raised,
-        rms * 1e6
     );
     Ok(())
 }

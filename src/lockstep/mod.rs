@@ -2,6 +2,10 @@
 //! threads, clocks or a bus: offline data sets (`actuator sim --record`), benches and tests.
 //! Every frame still goes through the codec, so what runs here is what runs on CAN.
 
+pub mod figures;
+
+pub use figures::{command_of, SideBySide, TourFigures};
+
 use crate::bus::Frame;
 use crate::daemon::config::{CommandKind, Config};
 use crate::daemon::node::CycleTiming;
@@ -122,12 +126,7 @@ pub fn write_csv(
     writeln!(out, "time,u,y,supply,i,setpoint")?;
     for s in samples {
         let r = &s.record;
-        let u = match command {
-            CommandKind::Voltage => r.command_voltage,
-            CommandKind::Duty => r.command_duty,
-            CommandKind::Torque => r.command_torque,
-            CommandKind::Velocity => r.command_velocity,
-        };
+        let u = command_of(r, command);
         let supply = if supply_is_pressure {
             r.supply_pressure
         } else {

@@ -13,6 +13,8 @@
 //! | [`edit`] | writing values into the configuration, keeping its comments; what changed |
 //! | [`axis`] | the whole tuning of one axis: design, robustness, friction, supervision, schedule |
 //! | [`pneumatic`] | a pneumatic axis: its drive gains per supply point for the daemon's direction P design |
+//! | [`predict`] | a configuration run in lock step on the fitted model over the tour: its figures |
+//! | [`search`] | the designs tried, each predicted; the best against the given configuration |
 //!
 //! The layer uses the lab (model files), the daemon's configuration (its types and validation)
 //! and the control layer's linear systems; nothing uses it but the `actuator` binary.
@@ -24,7 +26,11 @@ pub mod fitted;
 pub mod keys;
 pub mod plant;
 pub mod pneumatic;
+pub mod predict;
+pub mod search;
 
 pub use axis::{regenerate_fault_table, robust_plant_file, tune, Goal, TuneOptions, Tuning};
 pub use fitted::Fitted;
 pub use pneumatic::{tune_pneumatic, PneumaticTuning};
+pub use predict::{predict, Tour};
+pub use search::{choose, Aim, Choice, Objective};
