@@ -545,7 +545,7 @@ fn readme_figure(section: &str, after: &str) -> f64 {
 #[test]
 fn the_readme_tuning_walkthrough_runs_and_its_figures_hold() {
     let dir = tempfile::tempdir().expect("tempdir");
-    for sub in ["config", "tests/data"] {
+    for sub in ["config", "tests/data", "tests/data/tune"] {
         let to = dir.path().join(sub);
         std::fs::create_dir_all(&to).expect("mkdir");
         for entry in std::fs::read_dir(root().join(sub)).expect("read_dir") {
@@ -558,20 +558,17 @@ fn the_readme_tuning_walkthrough_runs_and_its_figures_hold() {
     let (blocks, section) = readme_walkthrough();
     assert_eq!(
         blocks.len(),
-        2,
-        "the linear axis and the geared drive: {blocks:?}"
+        3,
+        "the solenoid, the linear axis and the geared drive: {blocks:?}"
     );
+    for block in &blocks[..2] {
+        assert_eq!(block.len(), 4, "record, fit, tune, run: {block:?}");
+    }
     assert_eq!(
-        blocks[0].len(),
-        4,
-        "record, fit, tune, run: {:?}",
-        blocks[0]
-    );
-    assert_eq!(
-        blocks[1].len(),
+        blocks[2].len(),
         5,
         "record, fit, tune, run, design robust: {:?}",
-        blocks[1]
+        blocks[2]
     );
     let run_block = |steps: &[Vec<String>]| -> Vec<f64> {
         let mut figures = Vec::new();
@@ -600,7 +597,25 @@ fn the_readme_tuning_walkthrough_runs_and_its_figures_hold() {
         }
         figures
     };
+    // The solenoid: tuned by the search, the figures the README states.
     let figures = run_block(&blocks[0]);
+    let (before, after) = (figures[0], figures[1]);
+    println!("README solenoid walkthrough: {before} µm -> {after} µm");
+    assert!(after <= 0.5 * before, "{after} against {before}");
+    for (stated, measured) in [
+        (readme_figure(&section, "tracks this plant at "), before),
+        (
+            readme_figure(&section, "configuration\ntracks it at "),
+            after,
+        ),
+    ] {
+        assert!(
+            (stated - measured).abs() <= 0.02 * measured,
+            "README says {stated} µm, the run gives {measured} µm"
+        );
+    }
+
+    let figures = run_block(&blocks[1]);
     let (before, after) = (figures[0], figures[1]);
     println!("README walkthrough: {before} µm -> {after} µm");
     assert!(after <= 0.5 * before, "{after} against {before}");
@@ -624,7 +639,7 @@ fn the_readme_tuning_walkthrough_runs_and_its_figures_hold() {
 
     // The geared drive: tuned at least twice as well, the robust controller designed on the
     // written plant, and the figures the README states.
-    let figures = run_block(&blocks[1]);
+    let figures = run_block(&blocks[2]);
     let (before, after) = (figures[0], figures[1]);
     println!("README motor_gear walkthrough: {before} µrad -> {after} µrad");
     assert!(after <= 0.5 * before, "{after} against {before}");

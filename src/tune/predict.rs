@@ -134,18 +134,30 @@ pub fn predict(
 }
 
 /// The fitted plant at its estimate and at the corners of the intervals of `names` (the
-/// estimate first).
-pub fn plants(fitted: &Fitted, names: &[String]) -> anyhow::Result<Vec<PlantSpec>> {
+/// estimate first). A corner past a parameter's physical range (an interval of a small damping
+/// reaching below zero) is taken at the range's edge, or at the estimate where the edge itself
+/// is excluded.
+pub fn plants(fitted: &Fitted, names: &[String]) -> Vec<PlantSpec> {
     let mut out = vec![fitted.model.spec.clone()];
     for corner in super::plant::corners(fitted, names) {
         let mut spec = fitted.model.spec.clone();
         for (n, v) in &corner {
-            spec.set(n, *v)
-                .map_err(|e| anyhow::anyhow!("{}: {n}: {e}", fitted.origin))?;
+            if spec.set(n, *v).is_ok() {
+                continue;
+            }
+            let edge = spec
+                .params()
+                .into_iter()
+                .find(|(q, _)| q == n)
+                .map(|(_, p)| v.clamp(p.def.min, p.def.max));
+            if let Some(edge) = edge {
+                // Excluded edges keep the estimate.
+                let _ = spec.set(n, edge);
+            }
         }
         out.push(spec);
     }
-    Ok(out)
+    out
 }
 
 #[cfg(test)]

@@ -254,7 +254,7 @@ pub fn choose(
         .iter()
         .map(|k| k.name(family))
         .collect();
-    let plants = plants(fitted, &names)?;
+    let plants = plants(fitted, &names);
     let estimate = &plants[..1];
     let tour_seconds = tour.clone();
     let score = |f: &TourFigures| objective.score(f, &tour_seconds);
@@ -294,6 +294,7 @@ pub fn choose(
             }),
         }
     };
+    let searching = matches!(aim, Aim::Search(_));
     let design = |goal: Goal| {
         tune(
             fitted,
@@ -304,6 +305,13 @@ pub fn choose(
                 ..options.clone()
             },
         )
+        .map(|mut t| {
+            if searching && goal.bandwidth_rad_s.is_some() {
+                t.bandwidth_reason =
+                    "the search's, by the tour predicted on the fitted model".to_string();
+            }
+            t
+        })
     };
     let label_of = |g: &Goal, w: f64| {
         format!(
