@@ -176,3 +176,66 @@ fn report_draws_the_ladder_discover_climbs() {
             .join(", ")
     )));
 }
+
+/// A record no body with a positive mass makes: the command has a slow and a fast component of
+/// equal size, the position follows both in phase but the fast one six times weaker, so the
+/// balance wants a negative mass (a spring alone would move both alike, a positive mass
+/// amplifies the fast one towards its resonance). The least-squares fit pins the mass at its
+/// smallest admissible value, 1e-12 kg, and earlier versions wrote that model. Such a fit is a
+/// failure to report: `fit` writes no model and names the parameter, `discover` refuses to start
+/// from it.
+#[test]
+fn a_fit_that_collapses_to_a_bound_is_refused_not_written() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut csv = String::from("time,u,y\n");
+    let mut noise = lab_common::Lcg(3);
+    let tau = 2.0 * std::f64::consts::PI;
+    for k in 0..4000 {
+        let t = k as f64 * 0.0025;
+        let u = 12.0 + 5.0 * (tau * 0.5 * t).sin() + 5.0 * (tau * 3.0 * t).sin();
+        let y = 0.01
+            + 0.003 * (tau * 0.5 * t).sin()
+            + 0.0005 * (tau * 3.0 * t).sin()
+            + 2e-6 * (noise.next() - 0.5);
+        csv.push_str(&format!("{t},{u},{y}\n"));
+    }
+    std::fs::write(dir.path().join("drift.csv"), csv).expect("written");
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_actuator"))
+            .args(args)
+            .current_dir(dir.path())
+            .output()
+            .expect("actuator runs")
+    };
+    let on_drift = |command: &str, out: &str| {
+        run(&[
+            command,
+            "--data",
+            "drift.csv",
+            "--family",
+            "solenoid",
+            "--with",
+            "spring,viscous",
+            "--out",
+            out,
+        ])
+    };
+    let out = on_drift("fit", "fitted.toml");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "a collapsed fit was accepted: {err}");
+    assert!(
+        err.contains("solenoid.mass_kg = 1.000e-12 ended at its lower bound")
+            && err.contains("collapsed")
+            && err.contains("not written"),
+        "{err}"
+    );
+    assert!(!dir.path().join("fitted.toml").exists());
+    let out = on_drift("discover", "found.toml");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success(),
+        "discover climbed from a collapsed fit: {err}"
+    );
+    assert!(err.contains("collapsed"), "{err}");
+    assert!(!dir.path().join("found.toml").exists());
+}

@@ -37,16 +37,6 @@ fn actuator(dir: &Path, args: &[&str]) -> (String, String) {
     (stdout, stderr)
 }
 
-/// The RMS following error `sim --record` reports (µm, µrad for a gear).
-fn achieved_rms(stderr: &str) -> f64 {
-    stderr
-        .split("RMS following error ")
-        .nth(1)
-        .and_then(|r| r.split_whitespace().next())
-        .and_then(|v| v.parse().ok())
-        .unwrap_or_else(|| panic!("no tracking figure in: {stderr}"))
-}
-
 /// The predicted RMS following errors of `tune`'s side-by-side table: given, given at its worst
 /// corner, and (when a design was found) tuned and tuned at its worst corner.
 fn predicted_rms(stdout: &str) -> Vec<f64> {
@@ -103,7 +93,7 @@ fn user_loop(dir: &Path, family: Family, plant: &Path) -> Result<Loop, String> {
                 "5",
             ],
         );
-        achieved_rms(&stderr)
+        lab_common::reported_rms(&stderr)
     };
     let before = sim(&config, "before.csv");
     actuator(
@@ -219,6 +209,21 @@ fn scale(spec: &mut PlantSpec, draw: &mut lab_common::Lcg, name: &str, lo: f64, 
         .unwrap_or_else(|e| panic!("{name}: {e}"));
 }
 
+/// Coulomb friction per direction drawn from `level` times 1 to `up_to`, the breakaway 1.1 to
+/// 1.6 times above it (stick-slip), in newtons.
+fn dry_friction(s: &mut PlantSpec, d: &mut lab_common::Lcg, level: f64, up_to: f64) {
+    for dir in ["pos", "neg"] {
+        let c = level * d.range(1.0, up_to);
+        s.set(&format!("coulomb.coulomb_{dir}_n"), c)
+            .expect("coulomb");
+        s.set(
+            &format!("stiction.breakaway_{dir}_n"),
+            c * d.range(1.1, 1.6),
+        )
+        .expect("stiction");
+    }
+}
+
 /// A plant of `family` foreign to its reference configuration: the reference plant with each
 /// parameter drawn on its own.
 fn draw_plant(family: Family, seed: u64) -> PlantSpec {
@@ -235,16 +240,7 @@ fn draw_plant(family: Family, seed: u64) -> PlantSpec {
             scale(s, &mut d, "spring.pretension_n", 0.5, 2.0);
             scale(s, &mut d, "viscous.damping_pos_n_s_per_m", 0.7, 2.0);
             scale(s, &mut d, "viscous.damping_neg_n_s_per_m", 0.7, 2.0);
-            for dir in ["pos", "neg"] {
-                let c = 0.55 * d.range(1.0, 4.0);
-                s.set(&format!("coulomb.coulomb_{dir}_n"), c)
-                    .expect("coulomb");
-                s.set(
-                    &format!("stiction.breakaway_{dir}_n"),
-                    c * d.range(1.1, 1.6),
-                )
-                .expect("stiction");
-            }
+            dry_friction(s, &mut d, 0.55, 4.0);
         }
         Family::LinearAxis => {
             scale(s, &mut d, "linear_axis.mass_kg", 1.0, 4.0);
@@ -252,16 +248,7 @@ fn draw_plant(family: Family, seed: u64) -> PlantSpec {
             scale(s, &mut d, "spring.stiffness_n_per_m", 0.4, 1.5);
             scale(s, &mut d, "viscous.damping_pos_n_s_per_m", 0.7, 2.0);
             scale(s, &mut d, "viscous.damping_neg_n_s_per_m", 0.7, 2.0);
-            for dir in ["pos", "neg"] {
-                let c = 2.0 * d.range(1.0, 3.0);
-                s.set(&format!("coulomb.coulomb_{dir}_n"), c)
-                    .expect("coulomb");
-                s.set(
-                    &format!("stiction.breakaway_{dir}_n"),
-                    c * d.range(1.1, 1.6),
-                )
-                .expect("stiction");
-            }
+            dry_friction(s, &mut d, 2.0, 3.0);
         }
         Family::MotorGear => {
             scale(s, &mut d, "motor_gear.load_inertia_kg_m2", 1.0, 4.0);
@@ -344,9 +331,10 @@ fn sweep(family: Family) {
         gains.first().copied().unwrap_or(1.0),
         gains.last().copied().unwrap_or(1.0)
     );
-    // A sweep that refuses most plants says nothing about what tune writes.
+    // A sweep that refuses most plants says nothing about what tune writes (a refusal is
+    // right where a 5 s record leaves a design parameter's interval wider than --max-spread).
     assert!(
-        4 * refused <= n,
+        2 * refused <= n,
         "{}: {refused} of {n} refused",
         family.name()
     );

@@ -126,7 +126,8 @@ enum Command {
         out: PathBuf,
         /// What to choose by: rms (the least RMS following error over the tour, predicted by
         /// running the daemon's node on the fitted model), settling (the slowest step's
-        /// settling), overshoot; or one linear design: bandwidth (the largest whose linear
+        /// settling), overshoot, steady (the error held at the end of each dwell); or one
+        /// linear design: bandwidth (the largest whose linear
         /// prediction keeps the command in the drive's range) or a goal such as
         /// bandwidth=30,damping=0.9,fast=3 (rad/s). Every outcome is predicted and held
         /// against the given configuration.
@@ -532,24 +533,24 @@ fn run(args: Args) -> anyhow::Result<()> {
                 .map(actuatord::tune::Tour::load)
                 .transpose()?;
             if fitted.model.spec.family == actuatord::physics::Family::Pneumatic {
-                anyhow::ensure!(
-                    goal == actuatord::tune::Aim::default() && tour.is_none(),
-                    "{}: --goal and --tour choose the electromechanical drives' pole placement; a \
-                     pneumatic axis keeps the closed-loop pole of its configured effort weight",
-                    model.display()
-                );
+                let actuatord::tune::Aim::Search(objective) = goal else {
+                    anyhow::bail!(
+                        "{}: --goal bandwidth is the electromechanical drives' pole placement; a \
+                         pneumatic axis is searched over its closed-loop pole (--goal rms, \
+                         settling, overshoot or steady)",
+                        model.display()
+                    );
+                };
                 anyhow::ensure!(
                     fault_table.is_none() && robust_plant.is_none(),
                     "{}: --fault-table and --robust-plant are for the electromechanical drives; \
                      a pneumatic axis is tuned by its drive gains",
                     model.display()
                 );
-                let tuning = actuatord::tune::tune_pneumatic(&fitted, &text, &config, &options)?;
-                print!("{tuning}");
-                std::fs::write(&out, &tuning.text)
-                    .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", out.display()))?;
-                println!("wrote {}", out.display());
-                return Ok(());
+                let choice = actuatord::tune::choose_pneumatic(
+                    &fitted, &text, &config, &options, objective, tour,
+                )?;
+                return write_choice(&choice, &text, &out);
             }
             // Checked before anything is written.
             let robust = robust_plant
@@ -575,25 +576,10 @@ fn run(args: Args) -> anyhow::Result<()> {
                     actuatord::tune::regenerate_fault_table(tuning, &fitted, &out, table, &key)?;
                 print!("fault-symptom table for the fitted plant:\n{summary}");
             }
-            match choice.tuning() {
-                Some(tuning) => print!("{tuning}"),
-                None if fault_table.is_some() => {
-                    println!("no fault-symptom table written: the given configuration stays")
-                }
-                None => {}
+            if choice.tuning().is_none() && fault_table.is_some() {
+                println!("no fault-symptom table written: the given configuration stays");
             }
-            print!("{choice}");
-            std::fs::write(&out, choice.text(&text))
-                .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", out.display()))?;
-            println!(
-                "wrote {}{}",
-                out.display(),
-                if choice.accepted {
-                    ""
-                } else {
-                    " (the given configuration, unchanged)"
-                }
-            );
+            write_choice(&choice, &text, &out)?;
             if let (Some(path), Some(text)) = (&robust_plant, robust) {
                 std::fs::write(path, text)
                     .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
@@ -881,6 +867,31 @@ fn sdo(iface: &str, node: u8, config: &Path, timeout_s: f64, op: SdoOp) -> anyho
 }
 
 /// Offline closed loop: the controller of `config` against `plant`, written as CSV.
+/// Print a choice of `tune` (the chosen tuning's report, the designs tried and the predictions)
+/// and write what it chose to `out`: the tuned configuration, or the given one unchanged.
+fn write_choice<T: actuatord::tune::choice::Tuned + std::fmt::Display>(
+    choice: &actuatord::tune::Choice<T>,
+    given: &str,
+    out: &Path,
+) -> anyhow::Result<()> {
+    if let Some(tuning) = choice.tuning() {
+        print!("{tuning}");
+    }
+    print!("{choice}");
+    std::fs::write(out, choice.text(given))
+        .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", out.display()))?;
+    println!(
+        "wrote {}{}",
+        out.display(),
+        if choice.accepted {
+            ""
+        } else {
+            " (the given configuration, unchanged)"
+        }
+    );
+    Ok(())
+}
+
 fn sim_offline(
     config_source: &Source,
     plant: Box<dyn actuatord::physics::Plant>,

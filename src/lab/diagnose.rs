@@ -355,7 +355,10 @@ fn candidate(
     let delta_bic = bic_delta(base.rss, k_b, fit.rss, k_c, n_eff);
     let improvement = (base.nrmse - fit.nrmse) / base.nrmse.max(f64::MIN_POSITIVE);
     let holdout_improvement = 1.0 - (held / base_holdout.max(f64::MIN_POSITIVE)).sqrt();
-    let significant = p_value < opts.alpha
+    // A collapsed fit explains nothing, however small its residual.
+    let refused = super::collapse::collapsed(&spec, &fitted, fit.nrmse, Some(base_spec));
+    let significant = refused.is_none()
+        && p_value < opts.alpha
         && delta_bic < 0.0
         && improvement >= opts.min_improvement
         && holdout_improvement >= opts.min_improvement;
@@ -371,7 +374,13 @@ fn candidate(
         nrmse: fit.nrmse,
         improvement,
         significant,
-        evidence: evidence(kind, fitted.family, base, data, d, unit),
+        evidence: match &refused {
+            Some(why) => format!(
+                "refused: {why}; {}",
+                evidence(kind, fitted.family, base, data, d, unit)
+            ),
+            None => evidence(kind, fitted.family, base, data, d, unit),
+        },
         p_value,
         delta_bic,
         holdout_improvement,

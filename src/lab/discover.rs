@@ -4,6 +4,7 @@
 
 use serde::Serialize;
 
+use super::collapse::collapsed;
 use super::data::Dataset;
 use super::diagnose::{diagnose, DiagnoseOptions};
 use super::model::Model;
@@ -50,6 +51,9 @@ pub struct Discovery {
     pub model: Model,
     /// True when the loop stopped because nothing more was significant (not at [`MAX_STEPS`]).
     pub converged: bool,
+    /// A rung the diagnosis named whose refit collapsed (see [`super::collapse`]): the effect
+    /// and why it was not taken.
+    pub refused: Option<(String, String)>,
 }
 
 /// Run the loop from `model`. `progress(step, effect)` is called as rungs are added.
@@ -63,7 +67,13 @@ pub fn discover(
     let mut current = model.clone();
     let mut steps: Vec<Step> = Vec::new();
     let mut nrmse_base = None;
-    let (start, _) = fit_spec(&model.spec, data, d, None)?;
+    let (start, start_fit) = fit_spec(&model.spec, data, d, None)?;
+    if let Some(why) = collapsed(&model.spec, &start, start_fit.nrmse, None) {
+        anyhow::bail!(
+            "{}: the model as given does not fit this record: {why}",
+            data.origin
+        );
+    }
     let start = Model {
         name: model.name.clone(),
         spec: start,
@@ -77,31 +87,40 @@ pub fn discover(
                 .find(|c| &c.effect == v)
                 .map(|c| (v.clone(), c.clone()))
         });
-        let Some((effect, c)) = next.filter(|_| steps.len() < MAX_STEPS) else {
-            let (spec, fit) = fit_spec(&current.spec, data, d, None)?;
-            let converged = dg.verdict.is_none();
-            return Ok(Discovery {
-                start,
+        // The final figure is the last rung's (or the start's) own refit: the same number the
+        // ladder shows.
+        let finish = |steps: Vec<Step>, refused, converged| {
+            let (model, nrmse_final) = match steps.last() {
+                Some(s) => (s.model.clone(), s.nrmse),
+                None => (start.clone(), start_fit.nrmse),
+            };
+            Ok(Discovery {
+                start: start.clone(),
                 nrmse_base: nrmse_base.unwrap_or(dg.nrmse_base),
                 steps,
-                nrmse_final: fit.nrmse,
-                model: Model {
-                    name: current.name,
-                    spec,
-                },
+                nrmse_final,
+                model,
                 converged,
-            });
+                refused,
+            })
+        };
+        let Some((effect, c)) = next.filter(|_| steps.len() < MAX_STEPS) else {
+            let converged = dg.verdict.is_none();
+            return finish(steps, None, converged);
         };
         let kind = EffectKind::from_name(&effect)
             .ok_or_else(|| anyhow::anyhow!("the diagnosis named an unknown effect '{effect}'"))?;
         progress(steps.len() + 1, &effect);
-        let mut spec = current.spec.clone();
-        spec.add_effect(kind)?;
-        let (spec, _) = fit_spec(&spec, data, d, None)?;
+        let mut with = current.spec.clone();
+        with.add_effect(kind)?;
+        let (spec, fit) = fit_spec(&with, data, d, None)?;
+        if let Some(why) = collapsed(&with, &spec, fit.nrmse, Some(&current.spec)) {
+            return finish(steps, Some((effect, why)), false);
+        }
         steps.push(Step {
             effect: effect.clone(),
-            nrmse_before: dg.nrmse_base,
-            nrmse: c.nrmse,
+            nrmse_before: steps.last().map_or(start_fit.nrmse, |s: &Step| s.nrmse),
+            nrmse: fit.nrmse,
             holdout_improvement: c.holdout_improvement,
             delta_bic: c.delta_bic,
             evidence: c.evidence.clone(),
@@ -124,6 +143,8 @@ impl Discovery {
             "with": self.model.effects().iter().map(|e| e.name()).collect::<Vec<_>>(),
             "nrmse_final": self.nrmse_final,
             "converged": self.converged,
+            "refused": self.refused.as_ref().map(|(effect, why)| serde_json::json!({
+                "effect": effect, "why": why})),
         })
     }
 }

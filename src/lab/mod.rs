@@ -21,6 +21,7 @@
 //! | [`motion`] | the balance where the body sticks and slips: moving samples masked to where it surely slides |
 //! | [`compare`] | prediction modes and the fit / NRMSE / RMSE of a model |
 //! | [`regimes`] | error by regime and residual tests: where a model fails |
+//! | [`collapse`] | a fit that collapsed (a parameter at a bound it cannot reach, a vanished residual): refused |
 //! | [`diagnose`] | candidate effects, their refit, penalised ranking and verdict |
 //! | [`discover`] | diagnose, add the verdict, refit, repeat: the ladder of effects |
 //! | [`methods`] | the identification methods of `fit`: least squares, recursive, output error |
@@ -30,6 +31,7 @@
 //! The lab uses the physics and identification layers and reads the daemon's recordings; it
 //! never uses the runtime otherwise.
 
+pub mod collapse;
 pub mod command;
 pub mod compare;
 pub mod data;

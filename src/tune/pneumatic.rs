@@ -86,13 +86,32 @@ fn interpolate(xs: &[f64], ys: &[f64], x: f64) -> Option<f64> {
     Some(ys[i] + t * (ys[i + 1] - ys[i]))
 }
 
-/// Tune the pneumatic axis `options.axis` of `config_text` on the fitted model.
+/// Tune the pneumatic axis `options.axis` of `config_text` on the fitted model, keeping the
+/// closed-loop pole the configuration gives its slower direction.
 pub fn tune_pneumatic(
     fitted: &Fitted,
     config_text: &str,
     config_path: &Path,
     options: &TuneOptions,
 ) -> anyhow::Result<PneumaticTuning> {
+    tune_pneumatic_at(fitted, config_text, config_path, options, None)
+}
+
+/// [`tune_pneumatic`] with the slower direction's closed-loop pole at the nominal supply given
+/// (`Some(z)`, `0 <= z < 1`) instead of the configuration's.
+pub fn tune_pneumatic_at(
+    fitted: &Fitted,
+    config_text: &str,
+    config_path: &Path,
+    options: &TuneOptions,
+    pole: Option<f64>,
+) -> anyhow::Result<PneumaticTuning> {
+    if let Some(z) = pole {
+        anyhow::ensure!(
+            (0.0..1.0).contains(&z),
+            "a closed-loop pole of a pneumatic direction is in [0, 1), got {z}"
+        );
+    }
     let origin = &fitted.origin;
     let cfg_name = config_path.display().to_string();
     let config = Config::from_toml(config_text, config_path)?;
@@ -246,13 +265,20 @@ pub fn tune_pneumatic(
         .as_deref()
         .and_then(at_goal)
         .unwrap_or(tuned_at_goal[slow]);
-    let goal_pole = integrator_lq_gain(configured_k, period_s, r_configured)
+    let configured_pole = integrator_lq_gain(configured_k, period_s, r_configured)
         .map(|q| 1.0 - q * configured_k * period_s)
         .filter(|z| (0.0..1.0).contains(z));
+    let goal_pole = pole.or(configured_pole);
     let r = goal_pole
         .and_then(|z| effort_weight_for_pole(tuned_at_goal[slow], period_s, z))
         .unwrap_or(r_configured);
     let goal = match goal_pole {
+        Some(z) if pole.is_some() => format!(
+            "the search's closed-loop pole {z:.3} of the slower direction ({}) at {:.0} Pa: r = \
+             (K_I T0)^2 z / (1 - z)^2",
+            ["down", "up"][slow],
+            p_goal
+        ),
         Some(z) => format!(
             "the configuration's closed-loop pole {z:.3} of the slower direction ({}) at {:.0} \
              Pa, kept for the fitted drive: r = (K_I T0)^2 z / (1 - z)^2",

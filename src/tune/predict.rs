@@ -11,7 +11,7 @@ use serde::Deserialize;
 use super::fitted::Fitted;
 use crate::daemon::config::{Config, SetpointStep};
 use crate::lockstep::{LockStep, TourFigures};
-use crate::physics::PlantSpec;
+use crate::physics::{Fault, FaultKind, PlantSpec, ScheduledFault};
 
 /// The set-points a configuration is judged on: the axis' own `[[axis.setpoints]]` or a tour
 /// file (`--tour`).
@@ -118,15 +118,44 @@ impl Tour {
     }
 }
 
+/// A fitted plant as the bench runs it: the model, and the supply it runs at as a share of the
+/// model's own (a schedule's supply point).
+#[derive(Debug, Clone)]
+pub struct BenchPlant {
+    pub spec: PlantSpec,
+    pub supply_share: f64,
+}
+
+impl From<PlantSpec> for BenchPlant {
+    fn from(spec: PlantSpec) -> Self {
+        BenchPlant {
+            spec,
+            supply_share: 1.0,
+        }
+    }
+}
+
 /// Run `config`'s axis `axis` over the tour against `plant`; the figures of the run.
 pub fn predict(
     config: &Config,
     axis: usize,
-    plant: &PlantSpec,
+    plant: &BenchPlant,
     tour: &Tour,
 ) -> anyhow::Result<TourFigures> {
     let c = tour.apply(config, axis)?;
-    let mut rig = LockStep::new(&c, plant.build()?, Vec::new())?;
+    // The supply from the start: the plant's supply scaled as `sim --fault supply_xK@0s` does.
+    let faults = if plant.supply_share == 1.0 {
+        Vec::new()
+    } else {
+        vec![ScheduledFault {
+            at_s: 0.0,
+            fault: Fault {
+                kind: FaultKind::Supply(plant.supply_share),
+                ramp_s: 0.0,
+            },
+        }]
+    };
+    let mut rig = LockStep::new(&c, plant.spec.build()?, faults)?;
     let mut records = Vec::with_capacity((tour.seconds / c.cycle.period_s) as usize + 1);
     rig.run(tour.seconds, &mut |s| records.push(s.record));
     TourFigures::of(&records, &c.axis[0])
@@ -137,8 +166,8 @@ pub fn predict(
 /// estimate first). A corner past a parameter's physical range (an interval of a small damping
 /// reaching below zero) is taken at the range's edge, or at the estimate where the edge itself
 /// is excluded.
-pub fn plants(fitted: &Fitted, names: &[String]) -> Vec<PlantSpec> {
-    let mut out = vec![fitted.model.spec.clone()];
+pub fn plants(fitted: &Fitted, names: &[String]) -> Vec<BenchPlant> {
+    let mut out = vec![BenchPlant::from(fitted.model.spec.clone())];
     for corner in super::plant::corners(fitted, names) {
         let mut spec = fitted.model.spec.clone();
         for (n, v) in &corner {
@@ -155,7 +184,7 @@ pub fn plants(fitted: &Fitted, names: &[String]) -> Vec<PlantSpec> {
                 let _ = spec.set(n, edge);
             }
         }
-        out.push(spec);
+        out.push(spec.into());
     }
     out
 }
@@ -211,6 +240,7 @@ mod tests {
         let b = crate::defaults::plant(Family::Solenoid);
         let plant = PlantSpec::from_toml(b.text, b.path).expect("plant");
         let tour = Tour::of(&config, 0).expect("tour");
+        let plant = BenchPlant::from(plant);
         let f = predict(&config, 0, &plant, &tour).expect("prediction");
         assert_eq!(f.steps, 4);
         assert_eq!(f.faults, 0);

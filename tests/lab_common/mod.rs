@@ -27,6 +27,17 @@ pub fn actuator<S: AsRef<str>>(dir: &Path, args: &[S]) -> String {
     stdout
 }
 
+/// The RMS following error `actuator sim --record` reports on its standard error, in µm (µrad
+/// for a gear).
+pub fn reported_rms(stderr: &str) -> f64 {
+    stderr
+        .split("RMS following error ")
+        .nth(1)
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no tracking figure in: {stderr}"))
+}
+
 /// The seeds of a sweep: `LAB_SEEDS=1,2,3` when set, `default` otherwise.
 pub fn sweep_seeds(default: std::ops::RangeInclusive<u64>) -> Vec<u64> {
     std::env::var("LAB_SEEDS")

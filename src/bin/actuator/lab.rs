@@ -457,11 +457,19 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                     s.evidence
                 );
             }
+            if let Some((effect, why)) = &found.refused {
+                println!("\n{effect} was named next, but its fit is refused: {why}");
+            }
             let with: Vec<&str> = found.model.effects().iter().map(|e| e.name()).collect();
             println!(
                 "\n{}; final model with {}: NRMSE {:.4}",
                 if found.steps.is_empty() {
                     "nothing added: no candidate improves the model significantly".to_string()
+                } else if found.refused.is_some() {
+                    format!(
+                        "{} added, then stopped at a collapsed fit",
+                        found.steps.len()
+                    )
                 } else if found.converged {
                     format!(
                         "{} added, then nothing more is significant",
@@ -510,6 +518,18 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             })?;
             bar.finish();
             let (crit_mode, crit_before, crit_after) = f.criterion;
+            // A collapsed fit is a failure to report: nothing is written.
+            if let Some(why) =
+                actuatord::lab::collapse::collapsed(&m.spec, &f.spec, crit_after, None)
+            {
+                anyhow::bail!(
+                    "{}: {} on {}: {why}; {} not written",
+                    m.name,
+                    method.name(),
+                    d.origin,
+                    out.display()
+                );
+            }
             let fitted = Model {
                 name: out
                     .file_stem()

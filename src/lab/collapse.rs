@@ -1,0 +1,98 @@
+//! A fit that collapsed is a failure to report, never a model: a parameter of the body the data
+//! were to determine ended at a bound its physics cannot reach (a mass, a drive gain, a time
+//! constant fitted to the smallest admissible value), or the residual vanished to rounding, which
+//! measured data cannot give (the balance's scale ran to zero, or its reference moved with the
+//! fit). `fit` refuses to write such a model, `diagnose` does not call its candidate
+//! significant, and `discover` does not take the rung.
+
+use crate::physics::PlantSpec;
+
+/// Below this NRMSE a fit of measured data has fitted its own reference, not the data: a
+/// sensor's quantisation alone leaves far more.
+pub const NRMSE_FLOOR: f64 = 1e-9;
+
+/// Share of a parameter's default within which a value counts as sitting on a bound that must
+/// not be reached.
+const AT_BOUND: f64 = 1e-6;
+
+/// Why the fit from `given` (the free flags it was fitted with) to `fitted` collapsed, or
+/// `None` for a fit that may stand. `nrmse` is the fit's figure. With `base`, the fit of the
+/// model below it (a candidate's base, a rung's foot), only a collapse the fit added counts: a
+/// parameter already at its bound there is the base's failure, reported with the base.
+pub fn collapsed(
+    given: &PlantSpec,
+    fitted: &PlantSpec,
+    nrmse: f64,
+    base: Option<&PlantSpec>,
+) -> Option<String> {
+    if nrmse.is_finite() && nrmse < NRMSE_FLOOR {
+        return Some(format!(
+            "the residual vanished (NRMSE {nrmse:.1e}, below {NRMSE_FLOOR:.0e}): a record with \
+             a sensor cannot be explained to rounding; the balance's scale ran to zero or its \
+             reference moved with the fit"
+        ));
+    }
+    let free: Vec<String> = given
+        .params()
+        .into_iter()
+        .filter(|(_, p)| p.free)
+        .map(|(n, _)| n)
+        .collect();
+    // The body's own parameters (mass, drive constants) carry the balance's scale; an effect's
+    // strictly positive parameter (a spring's stiffness) at its bound is the effect vanishing,
+    // which its candidate's figures judge.
+    let body = format!("{}.", fitted.family.name());
+    for (name, p) in fitted.params() {
+        if !free.contains(&name) || !name.starts_with(&body) {
+            continue;
+        }
+        let near = AT_BOUND * p.def.default.abs().max(f64::MIN_POSITIVE);
+        // A parameter that must stay above its lower bound (a mass, a gain, a time constant):
+        // at the bound it is not determined, it has vanished.
+        let at_bound = |v: f64| p.def.min_strict && v <= p.def.min + near;
+        let before = base.and_then(|b| b.get(&name));
+        if at_bound(p.value) && !before.is_some_and(at_bound) {
+            return Some(format!(
+                "{name} = {:.3e} ended at its lower bound {} (it must stay above it): the fit \
+                 collapsed, the data do not determine it with this model",
+                p.value, p.def.min
+            ));
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn solenoid() -> PlantSpec {
+        PlantSpec::from_toml(
+            include_str!("../../config/plants/solenoid.toml"),
+            "solenoid.toml",
+        )
+        .expect("plant")
+    }
+
+    #[test]
+    fn a_mass_at_its_bound_and_a_vanished_residual_are_collapses() {
+        let given = solenoid();
+        let mut fitted = given.clone();
+        assert_eq!(collapsed(&given, &fitted, 0.05, None), None);
+        fitted.set("solenoid.mass_kg", 1e-12).expect("admissible");
+        let why = collapsed(&given, &fitted, 0.05, None).expect("a collapse");
+        assert!(why.contains("solenoid.mass_kg"), "{why}");
+        // A parameter the fit was not asked for is the user's, at whatever value.
+        let mut fixed = given.clone();
+        fixed.set_free("solenoid.mass_kg", false).expect("known");
+        assert_eq!(collapsed(&fixed, &fitted, 0.05, None), None);
+        // A Coulomb level of 0 is a guide without dry friction, not a collapse.
+        let mut dry = given.clone();
+        dry.set("coulomb.coulomb_pos_n", 0.0).expect("admissible");
+        assert_eq!(collapsed(&given, &dry, 0.05, None), None);
+        // A base already at the bound: the candidate adds no collapse of its own.
+        assert_eq!(collapsed(&given, &fitted, 0.05, Some(&fitted)), None);
+        let why = collapsed(&given, &given, 3.4e-15, None).expect("rounding");
+        assert!(why.contains("vanished"), "{why}");
+    }
+}
