@@ -75,3 +75,80 @@ fn python_mcap_reads_the_channels_and_counts() {
         );
     }
 }
+
+/// A daemon killed mid-run (a crash, `kill -9`) leaves a recording without its footer, cut in
+/// the middle of a record: the incident's own record, the one a user puts into the lab. The
+/// lab reads it up to its last complete record and says where it was cut; a strict reader
+/// names the cut instead of a bare parse error.
+#[test]
+fn a_recording_cut_by_a_killed_writer_is_read_up_to_its_last_record() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let full = dir.path().join("full.mcap");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let script = Script {
+        setpoints: vec![
+            SetpointStep {
+                at_s: 0.0,
+                position_m: 0.005,
+            },
+            SetpointStep {
+                at_s: 1.0,
+                position_m: 0.008,
+            },
+            SetpointStep {
+                at_s: 3.0,
+                position_m: 0.004,
+            },
+        ],
+        faults: Vec::new(),
+        duration_s: 5.0,
+    };
+    let summary = run(
+        &root.join("config/solenoid.toml"),
+        &root.join("config/plants/solenoid.toml"),
+        &script,
+        &full,
+    )
+    .expect("demo runs");
+    let bytes = std::fs::read(&full).expect("recording");
+    let cut = dir.path().join("cut.mcap");
+    std::fs::write(&cut, &bytes[..bytes.len() * 6 / 10]).expect("cut written");
+
+    let whole = actuatord::recording::read_recording(&full).expect("reads");
+    assert_eq!(whole.cut, None);
+    assert_eq!(whole.cycles.len() as u64, summary.cycle.cycles);
+    let part = actuatord::recording::read_recording(&cut).expect("a cut recording reads");
+    let at = part.cut.as_ref().expect("the cut is reported");
+    assert!(
+        !part.cycles.is_empty() && part.cycles.len() < whole.cycles.len(),
+        "{} of {} cycles",
+        part.cycles.len(),
+        whole.cycles.len()
+    );
+    // What is read is what was written, record for record, up to the cut.
+    assert_eq!(part.cycles[..], whole.cycles[..part.cycles.len()]);
+    assert_eq!(at.bytes, bytes.len() * 6 / 10);
+    let strict = actuatord::recording::read_cycles(&cut).expect_err("strict reader");
+    assert!(
+        strict.to_string().contains("without its footer"),
+        "{strict}"
+    );
+
+    // The lab, as a user runs it after the crash.
+    let out = Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .args(["compare", "--family", "solenoid", "--data"])
+        .arg(&cut)
+        .output()
+        .expect("actuator runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("cut: the file ends without its footer")
+            && stdout.contains(&format!("({} samples)", part.cycles.len())),
+        "{stdout}"
+    );
+}

@@ -582,8 +582,15 @@ enum McapCommand {
 /// was recorded, otherwise the voltage.
 pub fn load_mcap(path: &Path) -> Result<Dataset, DataError> {
     let origin = path.display().to_string();
-    let cycles =
-        crate::recording::read_cycles(path).map_err(|e| DataError(format!("{origin}: {e}")))?;
+    let recording =
+        crate::recording::read_recording(path).map_err(|e| DataError(format!("{origin}: {e}")))?;
+    let cycles = recording.cycles;
+    // A recording whose writer was killed (the incident's own record) is read up to its last
+    // complete record; every figure that names the data says so.
+    let origin = match &recording.cut {
+        Some(cut) => format!("{origin} (cut: {cut})"),
+        None => origin,
+    };
     if cycles.is_empty() {
         return Err(DataError(format!(
             "{origin}: no messages on /actuatord/cycle"
