@@ -314,6 +314,24 @@ fn candidate(
     let (Some((mut fitted, mut fit)), Some((mut trained, _))) = (fits.next(), fits.next()) else {
         anyhow::bail!("{}: no fit for '{}'", data.origin, kind.name());
     };
+    // The candidate contains the base: from the base's own solution it cannot end worse. The
+    // search above starts every effect afresh and may miss it; then the base's nonlinear
+    // parameters are held at the base's values and only the new effect is searched.
+    if fit.rss > base.rss {
+        let mut held = spec.clone();
+        for (name, v) in &base.nonlinear {
+            if held.get(name).is_some() {
+                super::regress::set_nonlinear(&mut held, name, *v)?;
+                held.set_free(name, false)?;
+            }
+        }
+        let mut again = fit_spec_on(&held, data, d, &[None, Some(train)])?.into_iter();
+        if let (Some((f_spec, f)), Some((t_spec, _))) = (again.next(), again.next()) {
+            if f.rss < fit.rss {
+                (fitted, fit, trained) = (f_spec, f, t_spec);
+            }
+        }
+    }
     // A lag in the drive and a missing damping trade against each other, so the base's lag may
     // be far from the candidate's: the lag is profiled over a coarse grid with the candidate's
     // nonlinear parameters kept as found and the linear ones refitted (one regression per point;
@@ -353,10 +371,12 @@ fn candidate(
     .map(|t| t.p_value)
     .unwrap_or(1.0);
     let delta_bic = bic_delta(base.rss, k_b, fit.rss, k_c, n_eff);
-    let improvement = (base.nrmse - fit.nrmse) / base.nrmse.max(f64::MIN_POSITIVE);
+    // On the base's reference: the candidate's own target moves with its parameters.
+    let nrmse = fit.nrmse_on(base.reference());
+    let improvement = (base.nrmse - nrmse) / base.nrmse.max(f64::MIN_POSITIVE);
     let holdout_improvement = 1.0 - (held / base_holdout.max(f64::MIN_POSITIVE)).sqrt();
     // A collapsed fit explains nothing, however small its residual.
-    let refused = super::collapse::collapsed(&spec, &fitted, fit.nrmse, Some(base_spec));
+    let refused = super::collapse::collapsed(&spec, &fitted, nrmse, Some(base_spec));
     let significant = refused.is_none()
         && p_value < opts.alpha
         && delta_bic < 0.0
@@ -371,7 +391,7 @@ fn candidate(
         .collect();
     Ok(Candidate {
         effect: kind.name().to_string(),
-        nrmse: fit.nrmse,
+        nrmse,
         improvement,
         significant,
         evidence: match &refused {

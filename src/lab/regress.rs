@@ -150,6 +150,27 @@ pub struct IdFit {
     pub nonlinear: Vec<(String, f64)>,
 }
 
+impl IdFit {
+    /// The NRMSE's reference: the standard deviation of the target (the force the balance
+    /// explains) on the moving samples.
+    pub fn reference(&self) -> f64 {
+        let n = self.target.len().max(1) as f64;
+        let mean = self.target.iter().sum::<f64>() / n;
+        (self.target.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / n).sqrt()
+    }
+
+    /// This fit's NRMSE on another fit's reference: a candidate judged against its base on the
+    /// base's scale, whatever it does to its own target (a drive scale, a dead zone, a dead
+    /// time reshape it).
+    pub fn nrmse_on(&self, reference: f64) -> f64 {
+        if reference > 0.0 {
+            (self.rss / self.weighted_samples.max(1.0)).sqrt() / reference
+        } else {
+            self.nrmse
+        }
+    }
+}
+
 /// Effects the inverse-dynamics regression can represent for a family, given which signals were
 /// recorded (with a measured coil current, what acts before the coil is invisible): each
 /// effect's lab side says ([`super::effects`]).
