@@ -369,6 +369,7 @@ fn run_case(c: &Case, seed: u64, seconds: f64) -> Row {
 fn run_all(seeds: &[u64], seconds: f64) {
     let only = std::env::var("LAB_ONLY").unwrap_or_default();
     let mut failures = Vec::new();
+    let mut ran = 0;
     eprintln!(
         "{:<48} {:>10} {:>12}  verdict",
         "case", "base NRMSE", "with NRMSE"
@@ -384,6 +385,7 @@ fn run_all(seeds: &[u64], seconds: f64) {
             continue;
         }
         for &seed in seeds {
+            ran += 1;
             let r = run_case(&c, seed, seconds);
             eprintln!(
                 "{:<48} {:>10.4} {:>12.4}  {}{}",
@@ -398,6 +400,8 @@ fn run_all(seeds: &[u64], seconds: f64) {
             }
         }
     }
+    // A filter or a seed list that leaves nothing to run proves nothing.
+    assert!(ran > 0, "no case ran (LAB_ONLY={only:?}, seeds {seeds:?})");
     assert!(failures.is_empty(), "failed: {failures:#?}");
 }
 
@@ -409,10 +413,7 @@ fn hidden_effects_are_named_and_complete_models_get_none() {
 #[test]
 #[ignore = "sweep over seeds and longer data; run with --release -- --ignored"]
 fn hidden_effects_sweep() {
-    let seeds: Vec<u64> = std::env::var("LAB_SEEDS")
-        .ok()
-        .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
-        .unwrap_or_else(|| vec![2, 3, 4, 5]);
+    let seeds = lab_common::sweep_seeds(2..=5);
     run_all(&seeds, 30.0);
 }
 

@@ -148,6 +148,12 @@ fn sweep(
     for (k, (r, n)) in &tally {
         eprintln!("  {k:<36} {r}/{n}");
     }
+    // A filter or a seed list that leaves nothing to run proves nothing.
+    assert!(
+        tally.values().any(|(_, n)| *n > 0),
+        "no case ran (LAB_ONLY={only:?}, LAB_SEEDS={:?})",
+        std::env::var("LAB_SEEDS").ok()
+    );
     tally
 }
 
@@ -165,10 +171,7 @@ fn independent_records_hidden_effects_named_and_complete_models_none() {
 #[test]
 #[ignore = "sweep over seeds; run with --release -- --ignored (LAB_SEEDS=1,2,3 by default)"]
 fn independent_records_sweep() {
-    let seeds: Vec<u64> = std::env::var("LAB_SEEDS")
-        .ok()
-        .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
-        .unwrap_or_else(|| vec![1, 2, 3]);
+    let seeds = lab_common::sweep_seeds(1..=3);
     let all: Vec<_> = cases().into_iter().chain(open_cases()).collect();
     let claimed = cases().len();
     let tally = sweep(&all, &|_| seeds.clone(), 1.0);

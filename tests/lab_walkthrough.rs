@@ -68,15 +68,22 @@ fn the_readme_walkthrough_names_the_missing_effect_and_the_refit_lowers_the_erro
     );
     let steps = walkthrough();
     assert!(steps.len() >= 5, "the walkthrough has its steps: {steps:?}");
+    let mut promised = 0;
     for (args, comment) in &steps {
         let out = run(dir.path(), args);
         if let Some(verdict) = comment.strip_prefix("verdict: ") {
+            promised += 1;
             assert!(
                 out.contains(&format!("verdict: {verdict} is most likely missing")),
                 "promised verdict {verdict}: {out}"
             );
         }
     }
+    // The README promises a verdict; a walkthrough whose comment lost it would check nothing.
+    assert!(
+        promised > 0,
+        "no `# verdict: ...` comment in the walkthrough: {steps:?}"
+    );
     // The refitted model (with the named effect) explains the data better than the rough
     // one refitted (`diagnose` refits it), in the figure `compare` gives.
     let rough_fit = dir.path().join("rough.toml");

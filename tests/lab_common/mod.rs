@@ -38,12 +38,22 @@ pub fn reported_rms(stderr: &str) -> f64 {
         .unwrap_or_else(|| panic!("no tracking figure in: {stderr}"))
 }
 
-/// The seeds of a sweep: `LAB_SEEDS=1,2,3` when set, `default` otherwise.
+/// The seeds of a sweep: `LAB_SEEDS=1,2,3` when set, `default` otherwise. A list with an entry
+/// that is not a seed, or none, is refused: a sweep over nothing proves nothing.
 pub fn sweep_seeds(default: std::ops::RangeInclusive<u64>) -> Vec<u64> {
-    std::env::var("LAB_SEEDS")
-        .ok()
-        .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
-        .unwrap_or_else(|| default.collect())
+    let Ok(text) = std::env::var("LAB_SEEDS") else {
+        return default.collect();
+    };
+    let seeds: Vec<u64> = text
+        .split(',')
+        .map(|x| {
+            x.trim()
+                .parse()
+                .unwrap_or_else(|_| panic!("LAB_SEEDS={text:?}: {x:?} is not a seed"))
+        })
+        .collect();
+    assert!(!seeds.is_empty(), "LAB_SEEDS={text:?} names no seed");
+    seeds
 }
 
 /// Every candidate of a diagnosis, one line each, when `LAB_VERBOSE` is set.
