@@ -19,32 +19,41 @@ with open(sys.argv[1], "rb") as f:
 print(json.dumps({"counts": counts, "encodings": encodings}))
 "#;
 
+/// The demo's loop on the reference solenoid over `steps` (time, position), recorded to `path`.
+fn demo_recording(
+    path: &Path,
+    steps: &[(f64, f64)],
+    faults: &[&str],
+    duration_s: f64,
+) -> actuatord::demo::DemoSummary {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let script = Script {
+        setpoints: steps
+            .iter()
+            .map(|&(at_s, position_m)| SetpointStep { at_s, position_m })
+            .collect(),
+        faults: faults.iter().map(|f| f.parse().expect("fault")).collect(),
+        duration_s,
+    };
+    run(
+        &root.join("config/solenoid.toml"),
+        &root.join("config/plants/solenoid.toml"),
+        &script,
+        path,
+    )
+    .expect("demo runs")
+}
+
 #[test]
 fn python_mcap_reads_the_channels_and_counts() {
     let dir = tempfile::tempdir().expect("tempdir");
     let recording = dir.path().join("short.mcap");
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let script = Script {
-        setpoints: vec![
-            SetpointStep {
-                at_s: 0.0,
-                position_m: 0.005,
-            },
-            SetpointStep {
-                at_s: 0.5,
-                position_m: 0.008,
-            },
-        ],
-        faults: vec!["supply_x0.5@1s".parse().expect("fault")],
-        duration_s: 1.5,
-    };
-    let summary = run(
-        &root.join("config/solenoid.toml"),
-        &root.join("config/plants/solenoid.toml"),
-        &script,
+    let summary = demo_recording(
         &recording,
-    )
-    .expect("demo runs");
+        &[(0.0, 0.005), (0.5, 0.008)],
+        &["supply_x0.5@1s"],
+        1.5,
+    );
     let out = Command::new("python3")
         .args(["-c", READER])
         .arg(&recording)
@@ -84,32 +93,7 @@ fn python_mcap_reads_the_channels_and_counts() {
 fn a_recording_cut_by_a_killed_writer_is_read_up_to_its_last_record() {
     let dir = tempfile::tempdir().expect("tempdir");
     let full = dir.path().join("full.mcap");
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let script = Script {
-        setpoints: vec![
-            SetpointStep {
-                at_s: 0.0,
-                position_m: 0.005,
-            },
-            SetpointStep {
-                at_s: 1.0,
-                position_m: 0.008,
-            },
-            SetpointStep {
-                at_s: 3.0,
-                position_m: 0.004,
-            },
-        ],
-        faults: Vec::new(),
-        duration_s: 5.0,
-    };
-    let summary = run(
-        &root.join("config/solenoid.toml"),
-        &root.join("config/plants/solenoid.toml"),
-        &script,
-        &full,
-    )
-    .expect("demo runs");
+    let summary = demo_recording(&full, &[(0.0, 0.005), (1.0, 0.008), (3.0, 0.004)], &[], 5.0);
     let bytes = std::fs::read(&full).expect("recording");
     let cut = dir.path().join("cut.mcap");
     std::fs::write(&cut, &bytes[..bytes.len() * 6 / 10]).expect("cut written");

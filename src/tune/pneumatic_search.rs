@@ -31,16 +31,7 @@ pub fn choose_pneumatic(
     let cfg_name = config_path.display().to_string();
     let config = Config::from_toml(config_text, config_path)?;
     let (axis, a) = chosen_axis(&config, options, &cfg_name)?;
-    let tour = match tour {
-        Some(t) => t,
-        None => Tour::of(&config, axis)?,
-    };
-    anyhow::ensure!(
-        !tour.setpoints.is_empty(),
-        "{cfg_name}: axis {:?} has no [[axis.setpoints]] to judge a design on: give a tour \
-         (--tour FILE)",
-        a.name
-    );
+    let tour = Tour::resolve(tour, &config, axis, config_path)?;
     // The estimate at every supply point the schedule names (the model's own supply without
     // one), then the corners of the drive gains' intervals at the model's supply.
     let supply = fitted

@@ -106,6 +106,28 @@ impl Tour {
         })
     }
 
+    /// The tour a design of axis `axis` is judged on: `given` (`--tour FILE`) or the axis' own
+    /// set-points; an axis without any is refused, naming the file.
+    pub fn resolve(
+        given: Option<Tour>,
+        config: &Config,
+        axis: usize,
+        config_path: &Path,
+    ) -> anyhow::Result<Tour> {
+        let tour = match given {
+            Some(t) => t,
+            None => Tour::of(config, axis)?,
+        };
+        anyhow::ensure!(
+            !tour.setpoints.is_empty(),
+            "{}: axis {:?} has no [[axis.setpoints]] to judge a design on: give a tour (--tour \
+             FILE)",
+            config_path.display(),
+            config.axis.get(axis).map_or("", |a| a.name.as_str())
+        );
+        Ok(tour)
+    }
+
     /// `config` reduced to axis `axis` running this tour: what the lock step runs.
     pub fn apply(&self, config: &Config, axis: usize) -> anyhow::Result<Config> {
         let mut c = config.clone();

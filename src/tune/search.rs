@@ -122,17 +122,7 @@ pub fn bench(
     objective: Objective,
     tour: Option<Tour>,
 ) -> anyhow::Result<Bench> {
-    let a = &config.axis[axis];
-    let tour = match tour {
-        Some(t) => t,
-        None => Tour::of(config, axis)?,
-    };
-    anyhow::ensure!(
-        !tour.setpoints.is_empty(),
-        "{}: axis {:?} has no [[axis.setpoints]] to judge a design on: give a tour (--tour FILE)",
-        config_path.display(),
-        a.name
-    );
+    let tour = Tour::resolve(tour, config, axis, config_path)?;
     let family = fitted.model.spec.family;
     let names: Vec<String> = design_parameters(family)
         .iter()
