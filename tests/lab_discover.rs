@@ -239,3 +239,101 @@ fn a_fit_that_collapses_to_a_bound_is_refused_not_written() {
     assert!(err.contains("collapsed"), "{err}");
     assert!(!dir.path().join("found.toml").exists());
 }
+
+/// A cogging force (periodic in position) is in no catalogue: on a bare axis the ladder adds the
+/// two catalogue effects the record has and stops at the cogging, named `unexplained` with its
+/// period, never an effect the plant does not have; the report maps the residual.
+#[test]
+fn a_force_outside_the_catalogue_is_located_and_adds_no_rung_of_its_own() {
+    use lab_indep::Hidden;
+    let dir = tempfile::tempdir().expect("tempdir");
+    let truth = Truth::draw(Plant::ServoAxis, Some(Hidden::Cogging), 4);
+    let (_, pitch, _) = truth.cogging.expect("cogging drawn");
+    std::fs::write(
+        dir.path().join("axis.csv"),
+        to_csv(&simulate_for(&truth, 4, 0.5)),
+    )
+    .expect("write CSV");
+    let located = |structure: &serde_json::Value| {
+        let s = &structure[0];
+        s["against"] == "position"
+            && s["kind"] == "periodic"
+            && s["period"]
+                .as_f64()
+                .is_some_and(|p| (p / pitch - 1.0).abs() < 0.05)
+            && s["amplitude"].as_f64().is_some_and(|a| a > 0.0)
+            && s["share"].as_f64().is_some_and(|a| a > 0.3)
+    };
+    // The complete catalogue model: nothing of the catalogue is missing, the cogging is.
+    let dg = json(
+        dir.path(),
+        &[
+            "diagnose",
+            "--json",
+            "--data",
+            "axis.csv",
+            "--family",
+            "linear_axis",
+            "--with",
+            "viscous,coulomb",
+        ],
+    );
+    assert_eq!(dg["verdict"], "unexplained", "{dg:#}");
+    assert!(located(&dg["structure"]), "{:#}", dg["structure"]);
+    let text = lab_common::actuator(
+        dir.path(),
+        &[
+            "diagnose",
+            "--data",
+            "axis.csv",
+            "--family",
+            "linear_axis",
+            "--with",
+            "viscous,coulomb",
+        ],
+    );
+    assert!(
+        text.contains("verdict: unexplained") && text.contains("cogging"),
+        "{text}"
+    );
+    // The bare axis: the ladder climbs the catalogue's part and stops at the cogging.
+    let found = json(
+        dir.path(),
+        &[
+            "discover",
+            "--json",
+            "--data",
+            "axis.csv",
+            "--family",
+            "linear_axis",
+        ],
+    );
+    let added: BTreeSet<&str> = found["steps"]
+        .as_array()
+        .expect("steps")
+        .iter()
+        .filter_map(|s| s["effect"].as_str())
+        .collect();
+    assert!(
+        added.is_subset(&BTreeSet::from(["coulomb", "viscous"])),
+        "{found:#}"
+    );
+    assert!(located(&found["unexplained"]), "{found:#}");
+    lab_common::actuator(
+        dir.path(),
+        &[
+            "report",
+            "--data",
+            "axis.csv",
+            "--family",
+            "linear_axis",
+            "--with",
+            "viscous,coulomb",
+            "--out",
+            "report",
+        ],
+    );
+    let html = std::fs::read_to_string(dir.path().join("report/index.html")).expect("report");
+    assert!(html.contains("Residual map"), "no residual map");
+    assert!(html.contains("periodic in position: period"), "no structure");
+}

@@ -32,6 +32,26 @@ pub fn collapsed(
              reference moved with the fit"
         ));
     }
+    at_bound(given, fitted, base)
+        .into_iter()
+        .next()
+        .map(|name| {
+            let value = fitted.get(&name).unwrap_or(f64::NAN);
+            let min = fitted
+                .params()
+                .into_iter()
+                .find(|(n, _)| *n == name)
+                .map_or(0.0, |(_, p)| p.def.min);
+            format!(
+            "{name} = {value:.3e} ended at its lower bound {min} (it must stay above it): the fit \
+             collapsed, the data do not determine it with this model"
+        )
+        })
+}
+
+/// The body's parameters, free in `given`, that `fitted` ran to a lower bound they must stay
+/// above, and that were not there already in `base`.
+pub fn at_bound(given: &PlantSpec, fitted: &PlantSpec, base: Option<&PlantSpec>) -> Vec<String> {
     let free: Vec<String> = given
         .params()
         .into_iter()
@@ -42,6 +62,7 @@ pub fn collapsed(
     // strictly positive parameter (a spring's stiffness) at its bound is the effect vanishing,
     // which its candidate's figures judge.
     let body = format!("{}.", fitted.family.name());
+    let mut names = Vec::new();
     for (name, p) in fitted.params() {
         if !free.contains(&name) || !name.starts_with(&body) {
             continue;
@@ -52,14 +73,10 @@ pub fn collapsed(
         let at_bound = |v: f64| p.def.min_strict && v <= p.def.min + near;
         let before = base.and_then(|b| b.get(&name));
         if at_bound(p.value) && !before.is_some_and(at_bound) {
-            return Some(format!(
-                "{name} = {:.3e} ended at its lower bound {} (it must stay above it): the fit \
-                 collapsed, the data do not determine it with this model",
-                p.value, p.def.min
-            ));
+            names.push(name);
         }
     }
-    None
+    names
 }
 
 #[cfg(test)]

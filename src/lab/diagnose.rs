@@ -14,6 +14,7 @@ use super::effects::{self, Evidence};
 use super::model::Model;
 use super::regress::{balance, fit_spec, fit_spec_on, representable, IdFit};
 use super::signals::Prepared;
+use super::structure::{self, ResidualMap};
 use crate::ident::f_test_nested;
 use crate::physics::{EffectKind, Family, PlantSpec};
 
@@ -68,6 +69,16 @@ pub struct Candidate {
     pub parameters_added: i64,
     /// Fitted values of the effect's parameters.
     pub parameters: Vec<(String, f64)>,
+    /// Body parameters held at the base's value because the fit with them free ran them to
+    /// their bound ([`super::collapse::at_bound`]).
+    pub held: Vec<String>,
+    /// The residual of the refitted candidate, on [`Candidate::index`]: where its structure
+    /// is looked for.
+    #[serde(skip)]
+    pub residual: Vec<f64>,
+    /// Sample index of each residual.
+    #[serde(skip)]
+    pub index: Vec<usize>,
 }
 
 /// The result of a diagnosis.
@@ -79,8 +90,14 @@ pub struct Diagnosis {
     pub nrmse_base: f64,
     /// Candidates, best first.
     pub candidates: Vec<Candidate>,
-    /// The effect most likely missing, or none.
+    /// The effect most likely missing, or none (also when the error is `unexplained`).
     pub verdict: Option<String>,
+    /// True when the residual holds a structure that no candidate explains (see
+    /// [`super::structure`]): the verdict is `unexplained`, no effect of the catalogue.
+    pub unexplained: bool,
+    /// The residual of the best model (the verdict's candidate, else the model as it is)
+    /// mapped against every signal, with the structures left in it.
+    pub residual_map: ResidualMap,
     /// Samples used (moving and at rest) and the effective number behind the tests.
     pub samples: usize,
     /// `N_eff`.
@@ -266,19 +283,43 @@ pub fn diagnose(
             candidates.insert(0, c);
         }
     }
-    let verdict = candidates
-        .first()
-        .filter(|c| c.significant)
-        .map(|c| c.effect.clone());
+    let chosen = candidates.first().filter(|c| c.significant);
+    // Where the error lives: when the largest structure of the model as it is fits the error
+    // better than the best candidate, and the candidate only imitates it, or when no candidate
+    // is significant, the error is not of the catalogue.
+    let base_map = structure::analyse(&base.residual, &base.index, data, d);
+    let (unexplained, residual_map) = match (base_map.structures.first(), chosen) {
+        (Some(dominant), Some(c))
+            if structure::imitates(
+                dominant,
+                structure::held(dominant, &c.residual, &c.index, data, d),
+                mean_square(&base.residual),
+                mean_square(&c.residual),
+            ) =>
+        {
+            (true, base_map)
+        }
+        (_, Some(c)) => (false, structure::analyse(&c.residual, &c.index, data, d)),
+        (Some(_), None) => (true, base_map),
+        (None, None) => (false, base_map),
+    };
+    let verdict = chosen.filter(|_| !unexplained).map(|c| c.effect.clone());
     Ok(Diagnosis {
         mode: "inverse_dynamics".into(),
         nrmse_base: base.nrmse,
         candidates,
         verdict,
+        unexplained,
+        residual_map,
         samples,
         effective_samples: n_eff,
         not_assessed,
     })
+}
+
+/// Mean square of a residual.
+fn mean_square(r: &[f64]) -> f64 {
+    r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64
 }
 
 fn holdout_rss(
@@ -358,6 +399,26 @@ fn candidate(
             }
         }
     }
+    // A body parameter the candidate ran to its bound (a mass of 1e-12) is not determined with
+    // the effect free beside it: held at the base's value, the candidate is fitted again and
+    // judged as that (a fit at a bound is never a result; the effect may still be one).
+    let mut held_params = Vec::new();
+    let vanished = super::collapse::at_bound(&spec, &fitted, Some(base_spec));
+    if !vanished.is_empty() {
+        let mut hold = spec.clone();
+        for name in &vanished {
+            if let Some(v) = base_spec.get(name) {
+                hold.set(name, v)?;
+                hold.set_free(name, false)?;
+            }
+        }
+        let mut again = fit_spec_on(&hold, data, d, &[None, Some(train)])?.into_iter();
+        if let (Some((f_spec, f)), Some((t_spec, _))) = (again.next(), again.next()) {
+            (fitted, fit, trained) = (f_spec, f, t_spec);
+            spec = hold;
+            held_params = vanished;
+        }
+    }
     let held = balance(&trained, data, d)?.evaluate_on(test).rss;
     let k_b = base.parameters;
     let k_c = fit.parameters.max(k_b + 1);
@@ -394,23 +455,40 @@ fn candidate(
         nrmse,
         improvement,
         significant,
-        evidence: match &refused {
-            Some(why) => format!(
+        evidence: match (&refused, held_params.is_empty()) {
+            (Some(why), _) => format!(
                 "refused: {why}; {}",
                 evidence(kind, fitted.family, base, data, d, unit)
             ),
-            None => evidence(kind, fitted.family, base, data, d, unit),
+            (None, false) => format!(
+                "{} held at the base's value (free, the fit ran it to its bound); {}",
+                held_params.join(", "),
+                evidence(kind, fitted.family, base, data, d, unit)
+            ),
+            (None, true) => evidence(kind, fitted.family, base, data, d, unit),
         },
+        held: held_params,
         p_value,
         delta_bic,
         holdout_improvement,
         residual_ratio: (fit.rss / base.rss.max(f64::MIN_POSITIVE)).sqrt(),
         parameters_added: fit.parameters as i64 - k_b as i64,
         parameters,
+        residual: fit.residual,
+        index: fit.index,
     })
 }
 
 impl Diagnosis {
+    /// The verdict as `--json` and the text name it: an effect, `unexplained` or `none`.
+    pub fn verdict_name(&self) -> &str {
+        match (&self.verdict, self.unexplained) {
+            (Some(v), _) => v,
+            (None, true) => "unexplained",
+            (None, false) => "none",
+        }
+    }
+
     /// The stable JSON of `diagnose --json`.
     pub fn to_json(&self) -> serde_json::Value {
         serde_json::json!({
@@ -427,9 +505,12 @@ impl Diagnosis {
                 "holdout_improvement": c.holdout_improvement,
                 "residual_ratio": c.residual_ratio,
                 "parameters_added": c.parameters_added,
+                "held": c.held,
                 "parameters": c.parameters.iter().map(|(n, v)| serde_json::json!({"name": n, "value": v})).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
-            "verdict": self.verdict,
+            "verdict": self.verdict_name(),
+            "structure": self.residual_map.structures,
+            "residual_map": self.residual_map.rows,
             "samples": self.samples,
             "effective_samples": self.effective_samples,
             "not_assessed": self.not_assessed,
@@ -468,6 +549,9 @@ mod tests {
             residual_ratio: 0.5,
             parameters_added: 1,
             parameters: Vec::new(),
+            held: Vec::new(),
+            residual: Vec::new(),
+            index: Vec::new(),
         };
         assert!(complexity(&c("offset")) < complexity(&c("spring")));
         assert!(complexity(&c("coulomb")) < complexity(&c("stribeck")));
@@ -488,6 +572,9 @@ mod tests {
             residual_ratio,
             parameters_added: 1,
             parameters: Vec::new(),
+            held: Vec::new(),
+            residual: Vec::new(),
+            index: Vec::new(),
         };
         // A pretension the offset takes as well: the simpler one.
         assert!(simpler_as_good(

@@ -10,6 +10,7 @@ use super::diagnose::{diagnose, DiagnoseOptions};
 use super::model::Model;
 use super::regress::fit_spec;
 use super::signals::Prepared;
+use super::structure::Structure;
 use crate::physics::EffectKind;
 
 /// At most this many effects are added: a ladder longer than the catalogue's families allow
@@ -54,6 +55,9 @@ pub struct Discovery {
     /// A rung the diagnosis named whose refit collapsed (see [`super::collapse`]): the effect
     /// and why it was not taken.
     pub refused: Option<(String, String)>,
+    /// Structure the last diagnosis found in the residual that no candidate explains: the
+    /// ladder stops there, as no effect of the catalogue is the answer.
+    pub unexplained: Vec<Structure>,
 }
 
 /// Run the loop from `model`. `progress(step, effect)` is called as rungs are added.
@@ -102,6 +106,11 @@ pub fn discover(
                 model,
                 converged,
                 refused,
+                unexplained: if dg.unexplained {
+                    dg.residual_map.structures.clone()
+                } else {
+                    Vec::new()
+                },
             })
         };
         let Some((effect, c)) = next.filter(|_| steps.len() < MAX_STEPS) else {
@@ -113,6 +122,13 @@ pub fn discover(
         progress(steps.len() + 1, &effect);
         let mut with = current.spec.clone();
         with.add_effect(kind)?;
+        // As the diagnosis judged it: a body parameter that ran to its bound held.
+        for name in &c.held {
+            if let Some(v) = current.spec.get(name) {
+                with.set(name, v)?;
+                with.set_free(name, false)?;
+            }
+        }
         let (spec, fit) = fit_spec(&with, data, d, None)?;
         if let Some(why) = collapsed(&with, &spec, fit.nrmse, Some(&current.spec)) {
             return finish(steps, Some((effect, why)), false);
@@ -143,6 +159,7 @@ impl Discovery {
             "with": self.model.effects().iter().map(|e| e.name()).collect::<Vec<_>>(),
             "nrmse_final": self.nrmse_final,
             "converged": self.converged,
+            "unexplained": self.unexplained,
             "refused": self.refused.as_ref().map(|(effect, why)| serde_json::json!({
                 "effect": effect, "why": why})),
         })

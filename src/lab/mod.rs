@@ -21,6 +21,7 @@
 //! | [`motion`] | the balance where the body sticks and slips: moving samples masked to where it surely slides |
 //! | [`compare`] | prediction modes and the fit / NRMSE / RMSE of a model |
 //! | [`regimes`] | error by regime and residual tests: where a model fails |
+//! | [`structure`] | the residual mapped against every signal; structure no effect of the catalogue makes (periodic in position, an oscillation, a drift) |
 //! | [`collapse`] | a fit that collapsed (a parameter at a bound it cannot reach, a vanished residual): refused |
 //! | [`diagnose`] | candidate effects, their refit, penalised ranking and verdict |
 //! | [`discover`] | diagnose, add the verdict, refit, repeat: the ladder of effects |
@@ -48,6 +49,7 @@ pub mod regress;
 pub mod regress_gear;
 pub mod report;
 pub mod signals;
+pub mod structure;
 mod svg;
 
 pub use command::Command;

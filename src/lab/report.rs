@@ -1,7 +1,8 @@
 //! The HTML report: measurement and model over time, residual against velocity, position and
-//! supply, error by regime as bars, before/after when several models are given, and the ladder of
-//! `discover` when one was run: the error falling rung by rung and the residual before and after
-//! each rung.
+//! supply, error by regime as bars, before/after when several models are given, the residual map
+//! of each model against every signal with the structure left in it, and the ladder of
+//! `discover` when one was run: the error falling rung by rung, the residual before and after
+//! each rung, and the structure it left unexplained.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -12,6 +13,7 @@ use super::discover::Discovery;
 use super::model::Model;
 use super::regimes::{breakdown, Breakdown};
 use super::signals::Prepared;
+use super::structure::{self, Against, MapRow};
 use super::svg::{bars, chart, Series};
 
 /// Text safe inside HTML.
@@ -160,6 +162,7 @@ pub fn write_report(
         }
     }
     html.push_str("</table>");
+    html.push_str(&map_section(models, data, prep)?);
     if let Some(found) = ladder {
         html.push_str(&ladder_section(found, data, prep)?);
     }
@@ -167,6 +170,78 @@ pub fn write_report(
     let path = dir.join("index.html");
     std::fs::write(&path, html).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     Ok(path)
+}
+
+/// The residual map: each model's balance residual (free parameters refitted) as its means
+/// over bins of position, velocity, acceleration, command, command rate, supply and time, and
+/// the structures left in it that no effect of the catalogue makes.
+pub fn map_section(models: &[Model], data: &Dataset, prep: &Prepared) -> anyhow::Result<String> {
+    let mut html = String::from(
+        "<h2>Residual map</h2><p>The residual of the balance (free parameters refitted), its mean \
+         over 16 bins of equal count of each signal; the share is the part of the residual's \
+         variance the bin means hold. Structures: a sinusoid in position or time, or a drift, \
+         holding at least 30 % of the variance.</p>",
+    );
+    let mut maps = Vec::new();
+    for m in models {
+        let (_, fit) = super::regress::fit_spec(&m.spec, data, prep, None)?;
+        maps.push(structure::analyse(&fit.residual, &fit.index, data, prep));
+    }
+    let (position_unit, force_unit) = super::compare::units(&models[0]);
+    html.push_str("<table><tr><th>model</th><th>structure left</th></tr>");
+    for (m, map) in models.iter().zip(&maps) {
+        let text = if map.structures.is_empty() {
+            "none".to_string()
+        } else {
+            map.structures
+                .iter()
+                .map(|s| esc(&s.describe(position_unit, force_unit)))
+                .collect::<Vec<_>>()
+                .join("<br>")
+        };
+        let _ = write!(
+            html,
+            "<tr><td>{}</td><td style='text-align:left'>{text}</td></tr>",
+            esc(&m.name)
+        );
+    }
+    html.push_str("</table>");
+    for against in Against::ALL {
+        let rows: Vec<(&Model, &MapRow)> = models
+            .iter()
+            .zip(&maps)
+            .filter_map(|(m, map)| {
+                map.rows
+                    .iter()
+                    .find(|r| r.against == against)
+                    .map(|r| (m, r))
+            })
+            .collect();
+        if rows.is_empty() {
+            continue;
+        }
+        let names: Vec<String> = rows
+            .iter()
+            .map(|(m, r)| format!("{} (share {:.0} %)", m.name, 100.0 * r.share))
+            .collect();
+        let series: Vec<Series> = rows
+            .iter()
+            .zip(&names)
+            .map(|((_, r), name)| Series {
+                name,
+                x: r.centres.clone(),
+                y: r.means.clone(),
+                dots: false,
+            })
+            .collect();
+        html.push_str(&chart(
+            &format!("residual map: against {}", against.name().replace('_', " ")),
+            against.name(),
+            &format!("mean residual ({force_unit})"),
+            &series,
+        ));
+    }
+    Ok(html)
 }
 
 /// The ladder of `discover`: its table, the NRMSE of each rung as bars, and per rung the residual
@@ -204,7 +279,12 @@ pub fn ladder_section(
     let _ = write!(
         html,
         "<p>{}; final model with {}: NRMSE {:.4}.</p>",
-        if found.steps.is_empty() {
+        if !found.unexplained.is_empty() {
+            format!(
+                "{} added, then stopped at structure no effect of the catalogue explains",
+                found.steps.len()
+            )
+        } else if found.steps.is_empty() {
             "Nothing added: no candidate improves the model significantly".to_string()
         } else if found.converged {
             format!(
@@ -221,6 +301,15 @@ pub fn ladder_section(
         },
         found.nrmse_final
     );
+    let (position_unit, force_unit) = super::compare::units(&found.start);
+    for s in &found.unexplained {
+        let _ = write!(
+            html,
+            "<p><b>Unexplained</b>: {}; {}</p>",
+            esc(&s.describe(position_unit, force_unit)),
+            esc(s.hint())
+        );
+    }
     let mut labels = vec!["as given (refitted)".to_string()];
     let mut values = vec![found.nrmse_base];
     for s in &found.steps {

@@ -73,6 +73,11 @@ pub enum Hidden {
     DeadTime,
     SupplyGain,
     SupplyFriction,
+    /// Outside the lab's catalogue: a cogging force periodic in position, `A sin(2π x / p + φ)`.
+    Cogging,
+    /// Outside the lab's catalogue: a force oscillating in time from outside (an unbalanced fan
+    /// on the carriage), `A sin(2π f t + φ)`.
+    Vibration,
 }
 
 impl Hidden {
@@ -92,6 +97,22 @@ impl Hidden {
             Hidden::DeadTime => "dead_time",
             Hidden::SupplyGain => "supply_gain",
             Hidden::SupplyFriction => "supply_friction",
+            Hidden::Cogging => "cogging",
+            Hidden::Vibration => "vibration",
+        }
+    }
+
+    /// True for an effect the lab's catalogue has.
+    pub fn in_catalogue(self) -> bool {
+        !matches!(self, Hidden::Cogging | Hidden::Vibration)
+    }
+
+    /// The verdict a diagnosis owes: the effect, or `unexplained` outside the catalogue.
+    pub fn expected_verdict(self) -> &'static str {
+        if self.in_catalogue() {
+            self.lab_name()
+        } else {
+            "unexplained"
         }
     }
 }
@@ -150,6 +171,10 @@ pub struct Truth {
     pub friction_exponent: f64,
     /// The supply varies during the record (and is recorded).
     pub supply_varies: bool,
+    /// Cogging: amplitude (N), pitch (m), phase (rad).
+    pub cogging: Option<(f64, f64, f64)>,
+    /// Vibration: amplitude (N), frequency (Hz), phase (rad).
+    pub vibration: Option<(f64, f64, f64)>,
 }
 
 impl Truth {
@@ -192,6 +217,8 @@ impl Truth {
             delay: 0,
             friction_exponent: 0.0,
             supply_varies: false,
+            cogging: None,
+            vibration: None,
         };
         // A force scale of the plant: what its drive typically delivers.
         let force_scale;
@@ -297,6 +324,20 @@ impl Truth {
                 t.friction_exponent = g.range(0.8, 1.5);
                 t.supply_varies = true;
             }
+            Some(Hidden::Cogging) => {
+                t.cogging = Some((
+                    force_scale * g.range(0.4, 0.7),
+                    g.range(0.008, 0.02),
+                    g.range(-3.1, 3.1),
+                ))
+            }
+            Some(Hidden::Vibration) => {
+                t.vibration = Some((
+                    force_scale * g.range(0.4, 0.7),
+                    g.range(3.0, 9.0),
+                    g.range(-3.1, 3.1),
+                ))
+            }
         }
         if hidden == Some(Hidden::Saturation) {
             // A limit below the peaks of the command the loop asks for: measured on a run
@@ -372,6 +413,9 @@ fn smooth_load(t: &Truth, x: f64, v: f64) -> f64 {
     }
     if let Some((fmax, full)) = t.payload {
         f += fmax * (x / full).clamp(-1.0, 1.0);
+    }
+    if let Some((amp, pitch, phase)) = t.cogging {
+        f += amp * (std::f64::consts::TAU * x / pitch + phase).sin();
     }
     f - t.offset
 }
@@ -509,7 +553,10 @@ pub fn simulate_for(t: &Truth, seed: u64, length: f64) -> Dataset {
         }
         let ratio = t.supply_ratio(s);
         let friction_scale = ratio.max(0.0).powf(t.friction_exponent);
-        for _ in 0..sub {
+        for i in 0..sub {
+            let outside = t.vibration.map_or(0.0, |(amp, f, phase)| {
+                amp * (std::f64::consts::TAU * f * (time + i as f64 * h) + phase).sin()
+            });
             // Drive force before the load.
             let drive = match t.plant {
                 Plant::ServoAxis => t.force_per_command * ue,
@@ -538,7 +585,7 @@ pub fn simulate_for(t: &Truth, seed: u64, length: f64) -> Dataset {
                 }
                 None => drive,
             } * if v < 0.0 { t.gain_negative } else { 1.0 };
-            let outer = drive - smooth_load(t, x, v);
+            let outer = drive - smooth_load(t, x, v) + outside;
             // Karnopp: inside a small speed band the body sticks unless the force beats the
             // breakaway level.
             let band = 1e-5;

@@ -9,7 +9,7 @@ use clap::{Args, Subcommand};
 use crate::choice::Choice;
 
 use actuatord::lab::command::Command;
-use actuatord::lab::compare::{compare, default_mode, holdout, Mode};
+use actuatord::lab::compare::{compare, default_mode, holdout, units, Mode};
 use actuatord::lab::data::{load, Columns, Dataset};
 use actuatord::lab::diagnose::{diagnose, DiagnoseOptions};
 use actuatord::lab::discover::discover;
@@ -390,9 +390,41 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                     dg.not_assessed.join(", ")
                 );
             }
-            match &dg.verdict {
-                Some(v) => println!("\nverdict: {v} is most likely missing (add it: --with {v}, then `actuator fit`)"),
-                None => println!("\nverdict: none — no candidate improves the fit significantly"),
+            let (position_unit, force_unit) = units(&m);
+            let structures = &dg.residual_map.structures;
+            if !structures.is_empty() {
+                let whose = match &dg.verdict {
+                    Some(v) => format!("the model with {v}"),
+                    None => "the model as it is".to_string(),
+                };
+                println!(
+                    "\nstructure left in the residual of {whose} (RMS {:.3e} {force_unit}):",
+                    dg.residual_map.rms
+                );
+                for s in structures {
+                    println!("  {}", s.describe(position_unit, force_unit));
+                }
+            }
+            match (&dg.verdict, structures.first()) {
+                (Some(v), None) => println!("\nverdict: {v} is most likely missing (add it: --with {v}, then `actuator fit`)"),
+                (Some(v), Some(s)) => println!(
+                    "\nverdict: {v} is most likely missing (add it: --with {v}, then `actuator fit`); \
+                     beside it the error holds structure no candidate explains ({}): {}",
+                    s.describe(position_unit, force_unit),
+                    s.hint()
+                ),
+                (None, Some(s)) if dg.unexplained => {
+                    let best = dg.candidates.first().filter(|c| c.significant).map_or_else(
+                        String::new,
+                        |c| format!(" The best candidate, {}, cuts the error by {:.0} % but leaves this structure.", c.effect, 100.0 * c.improvement),
+                    );
+                    println!(
+                        "\nverdict: unexplained — none of the catalogue. The error lives here: {}; {}{best}",
+                        s.describe(position_unit, force_unit),
+                        s.hint()
+                    )
+                }
+                _ => println!("\nverdict: none — no candidate improves the fit significantly and the residual holds no structure"),
             }
             Ok(())
         }
@@ -460,10 +492,23 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             if let Some((effect, why)) = &found.refused {
                 println!("\n{effect} was named next, but its fit is refused: {why}");
             }
+            let (position_unit, force_unit) = units(&m);
+            if let Some(s) = found.unexplained.first() {
+                println!("\nunexplained: the error left is not of the catalogue; it lives here:");
+                for s in &found.unexplained {
+                    println!("  {}", s.describe(position_unit, force_unit));
+                }
+                println!("  {}", s.hint());
+            }
             let with: Vec<&str> = found.model.effects().iter().map(|e| e.name()).collect();
             println!(
                 "\n{}; final model with {}: NRMSE {:.4}",
-                if found.steps.is_empty() {
+                if !found.unexplained.is_empty() {
+                    format!(
+                        "{} added, then stopped at structure no effect of the catalogue explains",
+                        found.steps.len()
+                    )
+                } else if found.steps.is_empty() {
                     "nothing added: no candidate improves the model significantly".to_string()
                 } else if found.refused.is_some() {
                     format!(
