@@ -335,5 +335,8 @@ fn a_force_outside_the_catalogue_is_located_and_adds_no_rung_of_its_own() {
     );
     let html = std::fs::read_to_string(dir.path().join("report/index.html")).expect("report");
     assert!(html.contains("Residual map"), "no residual map");
-    assert!(html.contains("periodic in position: period"), "no structure");
+    assert!(
+        html.contains("periodic in position: period"),
+        "no structure"
+    );
 }
