@@ -7,6 +7,7 @@
 
 use std::path::Path;
 
+use crate::physics::term::{TermParam, TermSpec};
 use crate::physics::{EffectKind, Family, PlantSpec};
 
 /// A model under test.
@@ -77,8 +78,19 @@ impl Model {
             let lab = lab
                 .as_table()
                 .ok_or_else(|| anyhow::anyhow!("{origin}: [lab] must be a table"))?;
+            // Terms first: `fixed` may name their parameters.
+            if let Some(terms) = lab.get("term") {
+                let list = terms.as_array().ok_or_else(|| {
+                    anyhow::anyhow!("{origin}: [lab] term must be a list of [[lab.term]] tables")
+                })?;
+                for (i, item) in list.iter().enumerate() {
+                    spec.add_term(term_from_toml(item, i, origin)?)
+                        .map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
+                }
+            }
             for (key, value) in lab {
                 match key.as_str() {
+                    "term" => {}
                     "fixed" => {
                         let list = value.as_array().ok_or_else(|| {
                             anyhow::anyhow!("{origin}: [lab] fixed must be a list of names")
@@ -102,7 +114,11 @@ impl Model {
                             })?;
                         }
                     }
-                    other => anyhow::bail!("{origin}: [lab] unknown key '{other}', expected fixed"),
+                    other => {
+                        anyhow::bail!(
+                            "{origin}: [lab] unknown key '{other}', expected fixed or term"
+                        )
+                    }
                 }
             }
         }
@@ -129,6 +145,9 @@ impl Model {
             .collect();
         s.push_str("\n[lab]\n");
         s.push_str(&format!("fixed = [{}]\n", fixed.join(", ")));
+        for t in &self.spec.terms {
+            s.push_str(&t.to_toml());
+        }
         s
     }
 
@@ -154,6 +173,71 @@ impl Model {
     pub fn value(&self, qualified: &str) -> f64 {
         self.spec.get(qualified).unwrap_or(f64::NAN)
     }
+}
+
+/// One `[[lab.term]]` table (the `index`-th): `name`, `force` (an expression over `y`, `v`, `u`,
+/// `supply`, `t`, `pi` and its parameters), `params` (each `[min, max]`, or `{ min, max, value }`)
+/// and `candidate` (default false: the term is part of the model).
+fn term_from_toml(item: &toml::Value, index: usize, origin: &str) -> anyhow::Result<TermSpec> {
+    let at = format!("{origin}: [[lab.term]] #{}", index + 1);
+    let table = item
+        .as_table()
+        .ok_or_else(|| anyhow::anyhow!("{at}: must be a table"))?;
+    let name = table
+        .get("name")
+        .and_then(toml::Value::as_str)
+        .ok_or_else(|| anyhow::anyhow!("{at}: name must be a string"))?;
+    let at = format!("{origin}: [[lab.term]] '{name}'");
+    let force = table
+        .get("force")
+        .and_then(toml::Value::as_str)
+        .ok_or_else(|| anyhow::anyhow!("{at}: force must be a string (an expression)"))?;
+    let candidate = match table.get("candidate") {
+        None => false,
+        Some(v) => v
+            .as_bool()
+            .ok_or_else(|| anyhow::anyhow!("{at}: candidate must be true or false"))?,
+    };
+    for key in table.keys() {
+        if !matches!(key.as_str(), "name" | "force" | "params" | "candidate") {
+            anyhow::bail!("{at}: unknown key '{key}', expected name, force, params or candidate");
+        }
+    }
+    let number = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|i| i as f64));
+    let mut params = Vec::new();
+    if let Some(list) = table.get("params") {
+        let list = list
+            .as_table()
+            .ok_or_else(|| anyhow::anyhow!("{at}: params must be a table of name = [min, max]"))?;
+        for (pname, v) in list {
+            let bad = || {
+                anyhow::anyhow!(
+                    "{at}: params.{pname} must be [min, max] or {{ min, max, value }}, got {v}"
+                )
+            };
+            let (min, max, value) = match v {
+                toml::Value::Array(a) if a.len() == 2 => {
+                    let lo = number(&a[0]).ok_or_else(bad)?;
+                    let hi = number(&a[1]).ok_or_else(bad)?;
+                    (lo, hi, 0.5 * (lo + hi))
+                }
+                toml::Value::Table(t) => {
+                    let get = |k: &str| t.get(k).and_then(number);
+                    let lo = get("min").ok_or_else(bad)?;
+                    let hi = get("max").ok_or_else(bad)?;
+                    (lo, hi, get("value").unwrap_or(0.5 * (lo + hi)))
+                }
+                _ => return Err(bad()),
+            };
+            params.push(TermParam {
+                name: pname.clone(),
+                min,
+                max,
+                value,
+            });
+        }
+    }
+    Ok(TermSpec::new(name, force, &params, candidate, origin)?)
 }
 
 #[cfg(test)]
@@ -184,6 +268,33 @@ mod tests {
             }
         }
         assert!(seen >= 4, "found {seen} models");
+    }
+
+    #[test]
+    fn a_declared_term_is_read_written_and_read_back() {
+        let text = "family = \"linear_axis\"\n[viscous]\n\n[lab]\nfixed = [\"cogging.pitch\"]\n\
+                    [[lab.term]]\nname = \"cogging\"\n\
+                    force = \"a*sin(2*pi*y/pitch) + b*cos(2*pi*y/pitch)\"\n\
+                    params = { a = [-50, 50], b = [-50, 50], pitch = { min = 0.001, max = 0.05, value = 0.02 } }\n";
+        let m = Model::from_toml(text, "m.toml").expect("reads");
+        assert!(!m.is_free("cogging.pitch"));
+        assert!(m.is_free("cogging.a"));
+        assert_eq!(m.value("cogging.pitch"), 0.02);
+        let back = Model::from_toml(&m.to_toml(), "back.toml").expect("reads back");
+        assert_eq!(back.spec.terms, m.spec.terms);
+        assert!(!back.is_free("cogging.pitch"));
+        let err = Model::from_toml(
+            "family = \"linear_axis\"\n[lab]\n[[lab.term]]\nname = \"c\"\nforce = \"a*y\"\nparams = { a = \"x\" }\n",
+            "m.toml",
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("params.a"), "{err}");
+        let err = Model::from_toml(
+            "family = \"linear_axis\"\n[lab]\n[[lab.term]]\nname = \"spring\"\nforce = \"a*y\"\nparams = { a = [0, 1] }\n",
+            "m.toml",
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("spring"), "{err}");
     }
 
     #[test]

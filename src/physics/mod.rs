@@ -46,6 +46,7 @@ pub mod params;
 pub mod rng;
 pub mod sensor;
 pub mod spec;
+pub mod term;
 
 pub use effects::{EffectDef, EffectKind, Effects};
 pub use error::PhysicsError;

@@ -11,6 +11,7 @@ use super::family::{CommandUnit, Family};
 use super::fault::{FaultSet, ScheduledFault};
 use super::params::{set_checked, Param, ParamDef};
 use super::sensor::{Sensor, SensorSpec, SENSOR_PARAMS};
+use super::term::TermSpec;
 use super::{PhysicsError, Plant};
 
 /// One effect of a model, with its parameters.
@@ -41,6 +42,9 @@ pub struct PlantSpec {
     pub max_substep_s: f64,
     /// Faults the plant injects into itself at the given times.
     pub faults: Vec<ScheduledFault>,
+    /// Forces the model declares itself (a model file's `[[lab.term]]`); those marked as
+    /// candidates are not part of the plant.
+    pub terms: Vec<TermSpec>,
 }
 
 /// Base parameter definitions of a family.
@@ -99,6 +103,7 @@ impl PlantSpec {
             seed: 0,
             max_substep_s: default_substep(family),
             faults: Vec::new(),
+            terms: Vec::new(),
         }
     }
 
@@ -191,7 +196,57 @@ impl PlantSpec {
         for p in &self.sensor {
             out.push((format!("sensor.{}", p.key), p));
         }
+        for t in self.active_terms() {
+            for p in &t.params {
+                out.push((format!("{}.{}", t.name, p.key), p));
+            }
+        }
         out
+    }
+
+    /// The declared terms that act in the plant (not candidates).
+    pub fn active_terms(&self) -> impl Iterator<Item = &TermSpec> {
+        self.terms.iter().filter(|t| !t.candidate)
+    }
+
+    /// The declared term called `name`.
+    pub fn term(&self, name: &str) -> Option<&TermSpec> {
+        self.terms.iter().find(|t| t.name == name)
+    }
+
+    /// Make the declared candidate term `name` part of the model.
+    pub fn activate_term(&mut self, name: &str) -> Result<(), PhysicsError> {
+        let fam = self.family.name().to_string();
+        let t = self
+            .terms
+            .iter_mut()
+            .find(|t| t.name == name)
+            .ok_or_else(|| PhysicsError::Unknown {
+                origin: fam,
+                what: "term",
+                name: name.to_string(),
+                hint: String::new(),
+            })?;
+        t.candidate = false;
+        Ok(())
+    }
+
+    /// Declare a term (replacing one of the same name).
+    pub fn add_term(&mut self, term: TermSpec) -> Result<(), PhysicsError> {
+        let clash = term.name == self.family.name()
+            || term.name == "sensor"
+            || EffectKind::from_name(&term.name).is_some();
+        if clash {
+            return Err(PhysicsError::invalid(
+                "",
+                &format!("lab.term '{}'", term.name),
+                "name",
+                "is the name of a family, an effect of the catalogue or the sensor; choose another",
+            ));
+        }
+        self.terms.retain(|t| t.name != term.name);
+        self.terms.push(term);
+        Ok(())
     }
 
     fn param_mut(&mut self, qualified: &str) -> Result<(String, &mut Param), PhysicsError> {
@@ -201,6 +256,8 @@ impl PlantSpec {
             Some(&mut self.base)
         } else if table == "sensor" {
             Some(&mut self.sensor)
+        } else if let Some(t) = self.terms.iter_mut().find(|t| t.name == table) {
+            Some(&mut t.params)
         } else {
             self.effects
                 .iter_mut()
@@ -249,6 +306,7 @@ impl PlantSpec {
             .iter_mut()
             .chain(self.sensor.iter_mut())
             .chain(self.effects.iter_mut().flat_map(|e| e.params.iter_mut()))
+            .chain(self.terms.iter_mut().flat_map(|t| t.params.iter_mut()))
         {
             p.free = false;
         }
@@ -258,6 +316,7 @@ impl PlantSpec {
         self.base
             .iter()
             .chain(self.effects.iter().flat_map(|e| e.params.iter()))
+            .chain(self.active_terms().flat_map(|t| t.params.iter()))
             .filter(|p| p.free)
     }
 
@@ -265,6 +324,12 @@ impl PlantSpec {
         self.base
             .iter_mut()
             .chain(self.effects.iter_mut().flat_map(|e| e.params.iter_mut()))
+            .chain(
+                self.terms
+                    .iter_mut()
+                    .filter(|t| !t.candidate)
+                    .flat_map(|t| t.params.iter_mut()),
+            )
             .filter(|p| p.free)
     }
 
@@ -399,6 +464,7 @@ impl PlantSpec {
             }
             Ok((b[lo], b[hi]))
         };
+        let terms: Vec<_> = self.active_terms().map(TermSpec::load).collect();
         let body = |mass: f64, (y_min, y_max): (f64, f64), jam: f64| BodyParams {
             mass,
             y_min,
@@ -408,42 +474,54 @@ impl PlantSpec {
             jam_force: jam,
         };
         Ok(match self.family {
-            Family::Solenoid => Box::new(BodyPlant::new(
-                solenoid::SolenoidDrive::from_values(&b),
-                body(b[0], stops(4, 5)?, 1e6),
-                fx,
-                sensor,
-                faults,
-            )),
-            Family::LinearAxis => Box::new(BodyPlant::new(
-                linear_axis::AxisDrive::from_values(&b, self.command == CommandUnit::Volt),
-                body(b[0], stops(2, 3)?, 1e7),
-                fx,
-                sensor,
-                faults,
-            )),
+            Family::Solenoid => Box::new(
+                BodyPlant::new(
+                    solenoid::SolenoidDrive::from_values(&b),
+                    body(b[0], stops(4, 5)?, 1e6),
+                    fx,
+                    sensor,
+                    faults,
+                )
+                .with_terms(terms),
+            ),
+            Family::LinearAxis => Box::new(
+                BodyPlant::new(
+                    linear_axis::AxisDrive::from_values(&b, self.command == CommandUnit::Volt),
+                    body(b[0], stops(2, 3)?, 1e7),
+                    fx,
+                    sensor,
+                    faults,
+                )
+                .with_terms(terms),
+            ),
             Family::Pneumatic => {
                 let (lo, hi) = stops(4, 5)?;
                 let mut bp = body(b[0], (lo, hi), 1e6);
                 // The membrane rests at mid-stroke when nothing drives it.
                 bp.y0 = 0.5 * (lo + hi);
-                Box::new(BodyPlant::new(
-                    pneumatic::ValveDrive::from_values(&b),
-                    bp,
+                Box::new(
+                    BodyPlant::new(
+                        pneumatic::ValveDrive::from_values(&b),
+                        bp,
+                        fx,
+                        sensor,
+                        faults,
+                    )
+                    .with_terms(terms),
+                )
+            }
+            Family::MotorGear => Box::new(
+                motor_gear::MotorGearPlant::new(
+                    &b,
+                    self.command == CommandUnit::NewtonMetre,
                     fx,
                     sensor,
                     faults,
-                ))
-            }
-            Family::MotorGear => Box::new(motor_gear::MotorGearPlant::new(
-                &b,
-                self.command == CommandUnit::NewtonMetre,
-                fx,
-                sensor,
-                faults,
-                self.max_substep_s,
-                stops(13, 14)?,
-            )),
+                    self.max_substep_s,
+                    stops(13, 14)?,
+                )
+                .with_terms(terms),
+            ),
         })
     }
 

@@ -17,6 +17,7 @@ use crate::physics::family::Family;
 use crate::physics::fault::{Fault, FaultModifiers, FaultSet};
 use crate::physics::integrator::{locate, rk4};
 use crate::physics::sensor::Sensor;
+use crate::physics::term::{LoadTerm, Signals};
 use crate::physics::{Measurement, Plant};
 
 /// The part of a linear family that makes the force.
@@ -87,6 +88,8 @@ pub struct BodyPlant<D: Drive> {
     faults: FaultSet,
     mods: FaultModifiers,
     supply_ext: f64,
+    /// Forces the model declares itself.
+    terms: Vec<LoadTerm>,
 }
 
 const MAX_EVENTS: usize = 12;
@@ -117,11 +120,37 @@ impl<D: Drive> BodyPlant<D> {
             faults,
             mods: FaultModifiers::default(),
             supply_ext: 1.0,
+            terms: Vec::new(),
         };
         p.apply_faults();
         p.z = p.drive_force(&p.x, 0.0);
         p.settle(0.0);
         p
+    }
+
+    /// The plant with the forces its model declares (`[[lab.term]]`) on the body.
+    pub fn with_terms(mut self, terms: Vec<LoadTerm>) -> Self {
+        self.terms = terms;
+        self.z = self.drive_force(&self.x, 0.0);
+        self.settle(0.0);
+        self
+    }
+
+    /// The signals a declared term sees in state `x`: the command and the supply held over the
+    /// step, the time at its start.
+    fn term_signals(&self, x: &[f64; 3]) -> Signals {
+        let (volt, pascal) = self.drive.supply(self.supply_ratio());
+        Signals {
+            y: x[0],
+            v: x[1],
+            u: self.command,
+            supply: if D::FAMILY == Family::Pneumatic {
+                pascal
+            } else {
+                volt
+            },
+            t: self.t,
+        }
     }
 
     /// Recompute the effective effects from the nominal ones and the fault modifiers.
@@ -205,6 +234,10 @@ impl<D: Drive> BodyPlant<D> {
         }
         // Spring, payload, offset and any other force on the body.
         self.fx.add_load_forces(y, x[1], &mut f);
+        if !self.terms.is_empty() {
+            let s = self.term_signals(x);
+            f += self.terms.iter().map(|t| t.force(&s)).sum::<f64>();
+        }
         f
     }
 

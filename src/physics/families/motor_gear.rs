@@ -14,6 +14,7 @@ use crate::physics::fault::{Fault, FaultModifiers, FaultSet};
 use crate::physics::integrator::{locate, rk4};
 use crate::physics::params::{ParamDef, Quantity};
 use crate::physics::sensor::Sensor;
+use crate::physics::term::{LoadTerm, Signals};
 use crate::physics::{Measurement, Plant};
 
 const fn p(
@@ -191,6 +192,8 @@ pub struct MotorGearPlant {
     faults: FaultSet,
     mods: FaultModifiers,
     supply_ext: f64,
+    /// Torques on the load the model declares itself.
+    terms: Vec<LoadTerm>,
 }
 
 const MAX_EVENTS: usize = 16;
@@ -252,10 +255,17 @@ impl MotorGearPlant {
             faults,
             mods: FaultModifiers::default(),
             supply_ext: 1.0,
+            terms: Vec::new(),
         };
         plant.apply_faults();
         plant.settle(0.0);
         plant
+    }
+
+    /// The plant with the torques its model declares (`[[lab.term]]`) on the load.
+    pub fn with_terms(mut self, terms: Vec<LoadTerm>) -> Self {
+        self.terms = terms;
+        self
     }
 
     fn apply_faults(&mut self) {
@@ -376,6 +386,16 @@ impl MotorGearPlant {
         let mut f = self.coupling(x, contact);
         // Spring, payload, offset and any other torque on the load.
         self.fx.add_load_forces(th, x[WL], &mut f);
+        if !self.terms.is_empty() {
+            let s = Signals {
+                y: th,
+                v: x[WL],
+                u: self.command,
+                supply: self.c.supply_v * self.supply_ratio(),
+                t: self.t,
+            };
+            f += self.terms.iter().map(|t| t.force(&s)).sum::<f64>();
+        }
         f
     }
 
