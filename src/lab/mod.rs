@@ -51,6 +51,7 @@ pub mod report;
 pub mod signals;
 pub mod structure;
 mod svg;
+pub mod terms;
 
 pub use command::Command;
 pub use compare::{compare, Comparison, Mode};

@@ -191,7 +191,7 @@ pub(super) fn param_term(spec: &PlantSpec, name: &str, col: Vec<f64>) -> anyhow:
     Ok(Term::param(super::params::by_name(spec, name)?, col))
 }
 
-pub(super) fn fixed_term(name: &str, col: Vec<f64>) -> Term {
+pub(crate) fn fixed_term(name: &str, col: Vec<f64>) -> Term {
     Term {
         name: name.to_string(),
         free: false,
@@ -318,6 +318,8 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
     for e in effects::present(spec) {
         e.load_terms(&cx, dry_scale.as_deref(), &mut terms)?;
     }
+    super::terms::load_terms(spec, raw, d, &mut terms)?;
+    nonlinear.extend(super::terms::nonlinear(spec));
     // The load side's terms on other signals, for the masked balance of the moving samples.
     let load_on = |light: &Prepared, t: &mut Vec<Term>| -> anyhow::Result<()> {
         let cx = Cx {
@@ -328,7 +330,7 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
         for e in effects::present(spec) {
             e.load_terms(&cx, dry_scale.as_deref(), t)?;
         }
-        Ok(())
+        super::terms::load_terms(spec, raw, light, t)
     };
     if spec.family == Family::MotorGear {
         super::regress_gear::in_motion(spec, raw, d, &mut terms, &load_on)?;
@@ -1074,6 +1076,7 @@ pub fn fit_spec_on(
     for e in &spec.effects {
         grids.extend(grid_for(&spec, e.kind, d, raw)?);
     }
+    grids.extend(super::terms::grids(&spec));
     grids.retain(|(name, _)| is_free(&spec, name));
     grids.dedup_by(|a, b| a.0 == b.0);
     let present: Vec<_> = effects::present(&spec).collect();

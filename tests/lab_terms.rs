@@ -1,0 +1,102 @@
+//! A force outside the catalogue, declared by the user as a term of the model file: on the
+//! independent simulator's cogging axis, `fit` finds its pitch and amplitude with intervals that
+//! hold the truth, and the error falls to what the catalogue's model leaves without the cogging.
+
+mod lab_common;
+mod lab_indep;
+
+use actuatord::lab::data::to_csv;
+use lab_indep::{simulate_for, Hidden, Plant, Truth};
+
+fn json(dir: &std::path::Path, args: &[&str]) -> serde_json::Value {
+    serde_json::from_str(&lab_common::actuator(dir, args)).expect("JSON")
+}
+
+/// The servo axis' complete catalogue model with the user's cogging term (`candidate` as given).
+fn cogged_model(candidate: bool) -> String {
+    format!(
+        "family = \"linear_axis\"\n\n[viscous]\n\n[coulomb]\n\n[lab]\n\n[[lab.term]]\n\
+         name = \"cogging\"\n\
+         force = \"a*sin(2*pi*y/pitch) + b*cos(2*pi*y/pitch)\"   # N\n\
+         params = {{ a = [-200, 200], b = [-200, 200], pitch = [0.002, 0.05] }}\n\
+         candidate = {candidate}\n"
+    )
+}
+
+#[test]
+fn a_declared_cogging_term_is_fitted_with_intervals_that_hold_the_truth() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let truth = Truth::draw(Plant::ServoAxis, Some(Hidden::Cogging), 4);
+    let (amp, pitch, _) = truth.cogging.expect("cogging drawn");
+    std::fs::write(
+        dir.path().join("axis.csv"),
+        to_csv(&simulate_for(&truth, 4, 0.5)),
+    )
+    .expect("write CSV");
+    std::fs::write(dir.path().join("cogged.toml"), cogged_model(false)).expect("model");
+    let fit = json(
+        dir.path(),
+        &[
+            "fit",
+            "--json",
+            "--data",
+            "axis.csv",
+            "--model",
+            "cogged.toml",
+            "--out",
+            "fitted.toml",
+        ],
+    );
+    let param = |name: &str| {
+        fit["parameters"]
+            .as_array()
+            .and_then(|ps| ps.iter().find(|p| p["name"] == name))
+            .unwrap_or_else(|| panic!("no {name} in {fit:#}"))
+            .clone()
+    };
+    let p = param("cogging.pitch");
+    let got = p["value"].as_f64().expect("pitch");
+    assert!((got / pitch - 1.0).abs() < 0.02, "pitch {got} vs {pitch}");
+    let (a, b) = (
+        param("cogging.a")["value"].as_f64().expect("a"),
+        param("cogging.b")["value"].as_f64().expect("b"),
+    );
+    // The command is a voltage and the drive's gain is held at its declared value: every force
+    // comes out on the drive's scale, so the amplitude is compared per unit of mass.
+    let mass = param("linear_axis.mass_kg")["value"]
+        .as_f64()
+        .expect("mass");
+    let (fitted, true_) = (a.hypot(b) / mass, amp / truth.mass);
+    assert!(
+        (fitted / true_ - 1.0).abs() < 0.1,
+        "amplitude per mass {fitted} vs {true_}"
+    );
+    // Without the term, the complete catalogue model leaves the cogging in its error.
+    std::fs::write(
+        dir.path().join("plain.toml"),
+        "family = \"linear_axis\"\n\n[viscous]\n\n[coulomb]\n",
+    )
+    .expect("model");
+    let plain = json(
+        dir.path(),
+        &[
+            "fit",
+            "--json",
+            "--data",
+            "axis.csv",
+            "--model",
+            "plain.toml",
+            "--out",
+            "plain_fitted.toml",
+        ],
+    );
+    let (with, without) = (
+        fit["nrmse"].as_f64().expect("nrmse"),
+        plain["nrmse"].as_f64().expect("nrmse"),
+    );
+    eprintln!("NRMSE with the term {with:.4}, without {without:.4}");
+    assert!(with < 0.5 * without, "with {with} vs without {without}");
+    // The written model reads back with the term in it.
+    let written = std::fs::read_to_string(dir.path().join("fitted.toml")).expect("written");
+    assert!(written.contains("[[lab.term]]") && written.contains("name = \"cogging\""));
+}
