@@ -100,3 +100,87 @@ fn a_declared_cogging_term_is_fitted_with_intervals_that_hold_the_truth() {
     let written = std::fs::read_to_string(dir.path().join("fitted.toml")).expect("written");
     assert!(written.contains("[[lab.term]]") && written.contains("name = \"cogging\""));
 }
+
+#[test]
+fn a_declared_candidate_term_is_named_by_diagnose_and_added_by_discover() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let truth = Truth::draw(Plant::ServoAxis, Some(Hidden::Cogging), 4);
+    let (_, pitch, _) = truth.cogging.expect("cogging drawn");
+    std::fs::write(
+        dir.path().join("axis.csv"),
+        to_csv(&simulate_for(&truth, 4, 0.5)),
+    )
+    .expect("write CSV");
+    std::fs::write(dir.path().join("cogged.toml"), cogged_model(true)).expect("model");
+    let dg = json(
+        dir.path(),
+        &[
+            "diagnose",
+            "--json",
+            "--data",
+            "axis.csv",
+            "--model",
+            "cogged.toml",
+        ],
+    );
+    assert_eq!(dg["verdict"], "cogging", "{dg:#}");
+    let found = json(
+        dir.path(),
+        &[
+            "discover",
+            "--json",
+            "--data",
+            "axis.csv",
+            "--model",
+            "cogged.toml",
+            "--out",
+            "found.toml",
+        ],
+    );
+    // `--with` makes the declared candidate part of the model for any command.
+    let compared = |with: &[&str]| {
+        let mut args = vec![
+            "fit",
+            "--json",
+            "--data",
+            "axis.csv",
+            "--model",
+            "cogged.toml",
+            "--out",
+            "f.toml",
+        ];
+        args.extend_from_slice(with);
+        json(dir.path(), &args)["nrmse"].as_f64().expect("nrmse")
+    };
+    let (without, with) = (compared(&[]), compared(&["--with", "cogging"]));
+    assert!(with < 0.5 * without, "fit: {without} -> {with}");
+    let err = lab_common::actuator_fails(
+        dir.path(),
+        &[
+            "compare",
+            "--data",
+            "axis.csv",
+            "--model",
+            "cogged.toml",
+            "--with",
+            "coging",
+        ],
+    );
+    assert!(
+        err.contains("cogged.toml") && err.contains("coging"),
+        "{err}"
+    );
+    let steps: Vec<&str> = found["steps"]
+        .as_array()
+        .expect("steps")
+        .iter()
+        .filter_map(|s| s["effect"].as_str())
+        .collect();
+    assert_eq!(steps, ["cogging"], "{found:#}");
+    let written =
+        actuatord::lab::model::Model::load(&dir.path().join("found.toml")).expect("reads");
+    let term = written.spec.term("cogging").expect("the term");
+    assert!(!term.candidate, "the term is part of the written model");
+    let got = written.value("cogging.pitch");
+    assert!((got / pitch - 1.0).abs() < 0.02, "pitch {got} vs {pitch}");
+}

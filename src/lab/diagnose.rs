@@ -108,6 +108,79 @@ pub struct Diagnosis {
 
 /// The signature of `kind` in the residual `base` of the model without it, as its lab side
 /// describes it ([`super::effects`]).
+/// The signature of an addition in the residual of the base: an effect's, or what a declared
+/// term is.
+fn signature(
+    kind: &Addition,
+    spec: &PlantSpec,
+    base: &IdFit,
+    data: &Dataset,
+    d: &Prepared,
+    unit: &str,
+) -> String {
+    match kind {
+        Addition::Effect(k) => evidence(*k, spec.family, base, data, d, unit),
+        Addition::Term(n) => spec.term(n).map_or_else(String::new, |t| {
+            format!("the model's own term: F = {} ({unit})", t.force)
+        }),
+    }
+}
+
+/// What a candidate adds to the base: an effect of the catalogue or a term the model declares as
+/// a candidate (`[[lab.term]]` with `candidate = true`).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Addition {
+    /// An effect of the catalogue.
+    Effect(EffectKind),
+    /// A declared term, by name.
+    Term(String),
+}
+
+impl Addition {
+    /// Its name, as candidates, verdicts and ladders print it.
+    pub fn name(&self) -> &str {
+        match self {
+            Addition::Effect(k) => k.name(),
+            Addition::Term(n) => n,
+        }
+    }
+
+    /// The addition named `name` for `spec`: a declared term of that name, else an effect.
+    pub fn named(spec: &PlantSpec, name: &str) -> anyhow::Result<Addition> {
+        if spec.term(name).is_some() {
+            return Ok(Addition::Term(name.to_string()));
+        }
+        EffectKind::from_name(name)
+            .map(Addition::Effect)
+            .ok_or_else(|| anyhow::anyhow!("unknown effect or term '{name}'"))
+    }
+
+    /// Make it part of `spec`.
+    pub fn add_to(&self, spec: &mut PlantSpec) -> anyhow::Result<()> {
+        match self {
+            Addition::Effect(k) => {
+                spec.add_effect(*k)?;
+            }
+            Addition::Term(n) => spec.activate_term(n)?,
+        }
+        Ok(())
+    }
+
+    /// Grid searches its fit adds.
+    fn searches(&self, spec: &PlantSpec, d: &Prepared, data: &Dataset) -> usize {
+        let mut s = spec.clone();
+        if self.add_to(&mut s).is_err() {
+            return 0;
+        }
+        match self {
+            Addition::Effect(k) => super::regress::grid_for(&s, *k, d, data).map_or(0, |g| g.len()),
+            Addition::Term(n) => s
+                .term(n)
+                .map_or(0, |t| t.linear.iter().filter(|&&l| !l).count()),
+        }
+    }
+}
+
 fn evidence(
     kind: EffectKind,
     family: Family,
@@ -136,7 +209,17 @@ fn simpler_as_good(c: &Candidate, best: &Candidate, min_improvement: f64) -> boo
 }
 
 fn complexity(c: &Candidate) -> usize {
-    EffectKind::from_name(&c.effect).map_or(usize::MAX, |k| k.params().len())
+    // A declared term counts the parameters it was fitted with.
+    EffectKind::from_name(&c.effect).map_or_else(
+        || {
+            if c.parameters.is_empty() {
+                usize::MAX
+            } else {
+                c.parameters.len()
+            }
+        },
+        |k| k.params().len(),
+    )
 }
 
 fn bic_delta(rss_b: f64, k_b: usize, rss_c: f64, k_c: usize, n_eff: f64) -> f64 {
@@ -201,23 +284,23 @@ pub fn diagnose(
             continue;
         }
         if representable(family, k, d) {
-            kinds.push(k);
+            kinds.push(Addition::Effect(k));
         } else {
             not_assessed.push(k.name().to_string());
+        }
+    }
+    for t in model.spec.terms.iter().filter(|t| t.candidate) {
+        if t.uses("supply") && d.supply.is_none() {
+            not_assessed.push(t.name.clone());
+        } else {
+            kinds.push(Addition::Term(t.name.clone()));
         }
     }
     let total = kinds.len();
     // Candidates with more grid searches take longer: started first, so that the workers finish
     // together (the results go back to the catalogue's order below).
-    let searches = |k: EffectKind| -> usize {
-        let mut s = base_spec.clone();
-        if s.add_effect(k).is_err() {
-            return 0;
-        }
-        super::regress::grid_for(&s, k, d, data).map_or(0, |g| g.len())
-    };
     let mut order: Vec<usize> = (0..kinds.len()).collect();
-    order.sort_by_key(|&i| std::cmp::Reverse(searches(kinds[i])));
+    order.sort_by_key(|&i| std::cmp::Reverse(kinds[i].searches(&base_spec, d, data)));
     let done = std::sync::atomic::AtomicUsize::new(0);
     let next = std::sync::atomic::AtomicUsize::new(0);
     let results = std::sync::Mutex::new(Vec::new());
@@ -226,7 +309,7 @@ pub fn diagnose(
             let Some(&i) = order.get(next.fetch_add(1, std::sync::atomic::Ordering::SeqCst)) else {
                 return Ok(());
             };
-            let kind = kinds[i];
+            let kind = &kinds[i];
             let c = candidate(
                 kind,
                 &base_spec,
@@ -335,7 +418,7 @@ fn holdout_rss(
 
 #[allow(clippy::too_many_arguments)]
 fn candidate(
-    kind: EffectKind,
+    kind: &Addition,
     base_spec: &PlantSpec,
     drive: &[(String, Vec<f64>)],
     base: &IdFit,
@@ -349,7 +432,7 @@ fn candidate(
     unit: &str,
 ) -> anyhow::Result<Candidate> {
     let mut spec = base_spec.clone();
-    spec.add_effect(kind)?;
+    kind.add_to(&mut spec)?;
     // On all samples and on the training part at once: the grid points are shared.
     let mut fits = fit_spec_on(&spec, data, d, &[None, Some(train)])?.into_iter();
     let (Some((mut fitted, mut fit)), Some((mut trained, _))) = (fits.next(), fits.next()) else {
@@ -458,14 +541,14 @@ fn candidate(
         evidence: match (&refused, held_params.is_empty()) {
             (Some(why), _) => format!(
                 "refused: {why}; {}",
-                evidence(kind, fitted.family, base, data, d, unit)
+                signature(kind, &spec, base, data, d, unit)
             ),
             (None, false) => format!(
                 "{} held at the base's value (free, the fit ran it to its bound); {}",
                 held_params.join(", "),
-                evidence(kind, fitted.family, base, data, d, unit)
+                signature(kind, &spec, base, data, d, unit)
             ),
-            (None, true) => evidence(kind, fitted.family, base, data, d, unit),
+            (None, true) => signature(kind, &spec, base, data, d, unit),
         },
         held: held_params,
         p_value,

@@ -11,7 +11,6 @@ use super::model::Model;
 use super::regress::fit_spec;
 use super::signals::Prepared;
 use super::structure::Structure;
-use crate::physics::EffectKind;
 
 /// At most this many effects are added: a ladder longer than the catalogue's families allow
 /// would be fitting noise, and each rung costs a whole diagnosis.
@@ -117,11 +116,11 @@ pub fn discover(
             let converged = dg.verdict.is_none();
             return finish(steps, None, converged);
         };
-        let kind = EffectKind::from_name(&effect)
-            .ok_or_else(|| anyhow::anyhow!("the diagnosis named an unknown effect '{effect}'"))?;
+        let addition = super::diagnose::Addition::named(&current.spec, &effect)
+            .map_err(|e| anyhow::anyhow!("the diagnosis named it: {e}"))?;
         progress(steps.len() + 1, &effect);
         let mut with = current.spec.clone();
-        with.add_effect(kind)?;
+        addition.add_to(&mut with)?;
         // As the diagnosis judged it: a body parameter that ran to its bound held.
         for name in &c.held {
             if let Some(v) = current.spec.get(name) {

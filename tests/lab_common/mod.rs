@@ -27,6 +27,21 @@ pub fn actuator<S: AsRef<str>>(dir: &Path, args: &[S]) -> String {
     stdout
 }
 
+/// Run `actuator ARGS` in `dir`; it must fail. Returns its standard error.
+pub fn actuator_fails(dir: &Path, args: &[&str]) -> String {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("actuator runs");
+    assert!(
+        !out.status.success(),
+        "actuator {} succeeded",
+        args.join(" ")
+    );
+    String::from_utf8_lossy(&out.stderr).to_string()
+}
+
 /// The RMS following error `actuator sim --record` reports on its standard error, in µm (µrad
 /// for a gear).
 pub fn reported_rms(stderr: &str) -> f64 {

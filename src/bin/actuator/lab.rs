@@ -59,8 +59,9 @@ pub struct ModelArgs {
     /// Plant family: linear_axis, solenoid, pneumatic, motor_gear.
     #[arg(long)]
     pub family: Option<String>,
-    /// Effects to add to the family, comma separated.
-    #[arg(long, value_delimiter = ',', requires = "family")]
+    /// Effects to add to the family, comma separated; with --model, effects of the catalogue or
+    /// terms the model file declares as candidates (`[[lab.term]]`) made part of the model.
+    #[arg(long, value_delimiter = ',')]
     pub with: Vec<String>,
 }
 
@@ -206,7 +207,15 @@ fn load_data(a: &DataArgs, models: &mut [&mut Model]) -> anyhow::Result<(Dataset
 
 fn load_model(a: &ModelArgs) -> anyhow::Result<Model> {
     match (&a.model, &a.family) {
-        (Some(p), _) => Model::load(p),
+        (Some(p), _) => {
+            let mut m = Model::load(p)?;
+            for name in a.with.iter().map(|w| w.trim()).filter(|w| !w.is_empty()) {
+                actuatord::lab::diagnose::Addition::named(&m.spec, name)
+                    .and_then(|add| add.add_to(&mut m.spec))
+                    .map_err(|e| anyhow::anyhow!("{}: --with {name}: {e}", p.display()))?;
+            }
+            Ok(m)
+        }
         (None, Some(f)) => Model::from_names(f, &a.with),
         (None, None) => anyhow::bail!("give a model: --model FILE or --family F [--with a,b]"),
     }
