@@ -59,6 +59,7 @@ fn a_term_written_as_a_spring_moves_every_family_as_the_spring_does() {
                     "test",
                 )
                 .expect("term"),
+                "test",
             )
             .expect("declared");
         let u = |t: f64| {
@@ -113,6 +114,7 @@ fn a_force_periodic_in_time_drives_a_damped_mass_to_the_closed_form_amplitude() 
             "test",
         )
         .expect("term"),
+        "test",
     )
     .expect("declared");
     let mut plant = spec.build().expect("builds");

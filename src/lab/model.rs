@@ -84,8 +84,7 @@ impl Model {
                     anyhow::anyhow!("{origin}: [lab] term must be a list of [[lab.term]] tables")
                 })?;
                 for (i, item) in list.iter().enumerate() {
-                    spec.add_term(term_from_toml(item, i, origin)?)
-                        .map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
+                    spec.add_term(term_from_toml(item, i, origin)?, origin)?;
                 }
             }
             for (key, value) in lab {
@@ -294,7 +293,11 @@ mod tests {
             "m.toml",
         )
         .unwrap_err();
-        assert!(err.to_string().contains("spring"), "{err}");
+        assert!(
+            err.to_string()
+                .starts_with("m.toml: [lab.term 'spring'] name"),
+            "{err}"
+        );
     }
 
     #[test]

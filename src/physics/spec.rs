@@ -231,14 +231,14 @@ impl PlantSpec {
         Ok(())
     }
 
-    /// Declare a term (replacing one of the same name).
-    pub fn add_term(&mut self, term: TermSpec) -> Result<(), PhysicsError> {
+    /// Declare a term (replacing one of the same name); `origin` names the model in errors.
+    pub fn add_term(&mut self, term: TermSpec, origin: &str) -> Result<(), PhysicsError> {
         let clash = term.name == self.family.name()
             || term.name == "sensor"
             || EffectKind::from_name(&term.name).is_some();
         if clash {
             return Err(PhysicsError::invalid(
-                "",
+                origin,
                 &format!("lab.term '{}'", term.name),
                 "name",
                 "is the name of a family, an effect of the catalogue or the sensor; choose another",
