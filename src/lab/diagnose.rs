@@ -106,8 +106,6 @@ pub struct Diagnosis {
     pub not_assessed: Vec<String>,
 }
 
-/// The signature of `kind` in the residual `base` of the model without it, as its lab side
-/// describes it ([`super::effects`]).
 /// The signature of an addition in the residual of the base: an effect's, or what a declared
 /// term is.
 fn signature(
@@ -181,6 +179,8 @@ impl Addition {
     }
 }
 
+/// The signature of `kind` in the residual `base` of the model without it, as its lab side
+/// describes it ([`super::effects`]).
 fn evidence(
     kind: EffectKind,
     family: Family,

@@ -7,6 +7,7 @@
 
 use std::path::Path;
 
+use crate::physics::spec::number;
 use crate::physics::term::{TermParam, TermSpec};
 use crate::physics::{EffectKind, Family, PlantSpec};
 
@@ -202,7 +203,6 @@ fn term_from_toml(item: &toml::Value, index: usize, origin: &str) -> anyhow::Res
             anyhow::bail!("{at}: unknown key '{key}', expected name, force, params or candidate");
         }
     }
-    let number = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|i| i as f64));
     let mut params = Vec::new();
     if let Some(list) = table.get("params") {
         let list = list

@@ -697,7 +697,8 @@ impl PlantSpec {
     }
 }
 
-fn number(v: &toml::Value) -> Option<f64> {
+/// A TOML number, integer or float.
+pub(crate) fn number(v: &toml::Value) -> Option<f64> {
     match v {
         toml::Value::Float(f) => Some(*f),
         toml::Value::Integer(i) => Some(*i as f64),

@@ -127,6 +127,33 @@ fn is_identifier(s: &str) -> bool {
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
+/// True where a number starts at `i`: a digit, or a point before one.
+fn number_starts(chars: &[char], i: usize) -> bool {
+    chars[i].is_ascii_digit()
+        || (chars[i] == '.' && chars.get(i + 1).is_some_and(char::is_ascii_digit))
+}
+
+/// The end of the number that starts at `i`, with its exponent when it has one (`1e-3`), so that
+/// the `e` of an exponent is no name.
+fn number_end(chars: &[char], mut i: usize) -> usize {
+    while i < chars.len() && (chars[i].is_ascii_digit() || chars[i] == '.') {
+        i += 1;
+    }
+    if i < chars.len() && (chars[i] == 'e' || chars[i] == 'E') {
+        let mut j = i + 1;
+        if j < chars.len() && (chars[j] == '+' || chars[j] == '-') {
+            j += 1;
+        }
+        if j < chars.len() && chars[j].is_ascii_digit() {
+            while j < chars.len() && chars[j].is_ascii_digit() {
+                j += 1;
+            }
+            return j;
+        }
+    }
+    i
+}
+
 /// The names an expression uses as variables, with their character positions (1-based): runs of
 /// letters, digits and `_` that are not numbers and not followed by `(` (a function).
 fn names_in(text: &str) -> Vec<(String, usize)> {
@@ -135,23 +162,8 @@ fn names_in(text: &str) -> Vec<(String, usize)> {
     let mut i = 0;
     while i < chars.len() {
         let c = chars[i];
-        if c.is_ascii_digit() || (c == '.' && chars.get(i + 1).is_some_and(char::is_ascii_digit)) {
-            // A number with its exponent, so that the `e5` of `1e5` is no name.
-            while i < chars.len() && (chars[i].is_ascii_digit() || chars[i] == '.') {
-                i += 1;
-            }
-            if i < chars.len() && (chars[i] == 'e' || chars[i] == 'E') {
-                let mut j = i + 1;
-                if j < chars.len() && (chars[j] == '+' || chars[j] == '-') {
-                    j += 1;
-                }
-                if j < chars.len() && chars[j].is_ascii_digit() {
-                    i = j;
-                    while i < chars.len() && chars[i].is_ascii_digit() {
-                        i += 1;
-                    }
-                }
-            }
+        if number_starts(&chars, i) {
+            i = number_end(&chars, i);
         } else if c.is_ascii_alphabetic() || c == '_' {
             let start = i;
             while i < chars.len() && (chars[i].is_ascii_alphanumeric() || chars[i] == '_') {
@@ -180,35 +192,17 @@ fn plain_numbers(text: &str) -> String {
     let mut in_name = false;
     while i < chars.len() {
         let c = chars[i];
-        let starts_number = !in_name
-            && (c.is_ascii_digit()
-                || (c == '.' && chars.get(i + 1).is_some_and(char::is_ascii_digit)));
-        if !starts_number {
+        if in_name || !number_starts(&chars, i) {
             in_name = c.is_ascii_alphanumeric() || c == '_';
             out.push(c);
             i += 1;
             continue;
         }
-        let start = i;
-        while i < chars.len() && (chars[i].is_ascii_digit() || chars[i] == '.') {
-            i += 1;
-        }
-        let mut end = i;
-        if i < chars.len() && (chars[i] == 'e' || chars[i] == 'E') {
-            let mut j = i + 1;
-            if j < chars.len() && (chars[j] == '+' || chars[j] == '-') {
-                j += 1;
-            }
-            if j < chars.len() && chars[j].is_ascii_digit() {
-                while j < chars.len() && chars[j].is_ascii_digit() {
-                    j += 1;
-                }
-                end = j;
-            }
-        }
-        let number: String = chars[start..end].iter().collect();
+        let end = number_end(&chars, i);
+        let number: String = chars[i..end].iter().collect();
+        let exponent = number.contains(['e', 'E']);
         match number.parse::<f64>() {
-            Ok(v) if end > i => out.push_str(&format!("{v}")),
+            Ok(v) if exponent => out.push_str(&format!("{v}")),
             _ => out.push_str(&number),
         }
         i = end;
@@ -401,11 +395,7 @@ impl TermSpec {
 
     /// The force at `s` with the parameters at their present values.
     pub fn force_at(&self, s: &Signals) -> f64 {
-        let mut values = [0.0; MAX_NAMES];
-        for (v, p) in values.iter_mut().zip(&self.params) {
-            *v = p.value;
-        }
-        self.compiled.eval(s, &values[..self.params.len()])
+        self.load().force(s)
     }
 
     /// The term as a plant applies it: its force with the present parameter values.
