@@ -65,6 +65,19 @@ fn a_declared_cogging_term_is_fitted_to_the_true_pitch_and_amplitude() {
     let p = param("cogging.pitch");
     let got = p["value"].as_f64().expect("pitch");
     assert!((got / pitch - 1.0).abs() < 0.02, "pitch {got} vs {pitch}");
+    // Its interval is the profile's over the searched grid: it holds the truth and is narrow.
+    let (lo, hi) = (
+        p["low"].as_f64().expect("pitch interval"),
+        p["high"].as_f64().expect("pitch interval"),
+    );
+    assert!(
+        lo <= pitch && pitch <= hi,
+        "pitch {pitch} outside [{lo}, {hi}]"
+    );
+    assert!(
+        hi - lo < 0.1 * pitch,
+        "pitch interval [{lo}, {hi}] for {pitch}"
+    );
     let (a, b) = (
         param("cogging.a")["value"].as_f64().expect("a"),
         param("cogging.b")["value"].as_f64().expect("b"),

@@ -91,7 +91,8 @@ pub enum Status {
     Kept,
     /// Fixed by the model.
     Fixed,
-    /// Found by the grid search of the least-squares fit (no interval).
+    /// Found by the grid search of the least-squares fit; its interval is the profile's over
+    /// the grid, conditional on the other grid parameters.
     Grid,
 }
 
@@ -250,7 +251,11 @@ fn parameters_of(spec: &PlantSpec, fit: &IdFit) -> Vec<FittedParameter> {
             out.push(FittedParameter {
                 name: name.clone(),
                 value: *v,
-                interval: None,
+                interval: fit
+                    .nonlinear_intervals
+                    .iter()
+                    .find(|(n, _)| n == name)
+                    .map(|(_, i)| *i),
                 status: Status::Grid,
             });
         }

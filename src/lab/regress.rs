@@ -148,6 +148,9 @@ pub struct IdFit {
     pub nrmse: f64,
     /// Nonlinear parameters and their values.
     pub nonlinear: Vec<(String, f64)>,
+    /// 95 % intervals of the grid-searched parameters, from the profile of the residual over
+    /// their grid ([`profile_interval`]); empty for a balance evaluated without a search.
+    pub nonlinear_intervals: Vec<(String, (f64, f64))>,
 }
 
 impl IdFit {
@@ -792,6 +795,7 @@ impl Balance {
             rss,
             nrmse,
             nonlinear: self.nonlinear.clone(),
+            nonlinear_intervals: Vec::new(),
         }
     }
 
@@ -1093,6 +1097,8 @@ pub fn fit_spec_on(
     let mut specs = vec![spec; searches];
     // The balance at each search's chosen point, kept for the final fit.
     let mut kept: Vec<Option<(PlantSpec, Rc<Balance>)>> = vec![None; searches];
+    // Each search's profile interval per grid parameter.
+    let mut profiles: Vec<Vec<(String, (f64, f64))>> = vec![Vec::new(); searches];
     for ((name, grid), smallest) in grids.into_iter().zip(smallest) {
         extra += 1;
         // Each point's residual sum of squares and its effective number of samples, per search.
@@ -1192,6 +1198,9 @@ pub fn fit_spec_on(
             let Some((r, g, bal)) = best[i].take() else {
                 continue;
             };
+            if let Some(interval) = profile_interval(&scored[i], (r, g)) {
+                profiles[i].push((name.clone(), interval));
+            }
             // The value kept may be smaller than the best point's: its balance is built again.
             let chosen = if smallest {
                 smallest_as_good(&scored[i], (r, g)).1
@@ -1216,7 +1225,8 @@ pub fn fit_spec_on(
                 b
             }
         };
-        let fit = bal.fit(indices[i], extra, d.n_eff_per_sample);
+        let mut fit = bal.fit(indices[i], extra, d.n_eff_per_sample);
+        fit.nonlinear_intervals = std::mem::take(&mut profiles[i]);
         apply_fit(&mut spec, &bal, &fit)?;
         out.push((spec, fit));
     }
@@ -1232,9 +1242,7 @@ fn smallest_as_good(scored: &[(f64, f64, f64)], best: (f64, f64)) -> (f64, f64) 
     let (best_rss, _) = best;
     scored
         .iter()
-        .filter(|(_, rss, n_eff)| {
-            best_rss > 0.0 && rss.is_finite() && n_eff * (rss / best_rss).ln() <= CHI2_1_95
-        })
+        .filter(|&&(_, rss, n_eff)| as_good(rss, n_eff, best_rss))
         .fold(
             best,
             |(r, g), &(gi, ri, _)| {
@@ -1245,6 +1253,39 @@ fn smallest_as_good(scored: &[(f64, f64, f64)], best: (f64, f64)) -> (f64, f64) 
                 }
             },
         )
+}
+
+/// True when a grid point of residual `rss` on `n_eff` effective samples cannot be told from the
+/// best point's `best_rss`: the likelihood ratio `N_eff ln(RSS / RSS_best)` stays below the χ²
+/// quantile of one parameter.
+fn as_good(rss: f64, n_eff: f64, best_rss: f64) -> bool {
+    best_rss > 0.0 && rss.is_finite() && n_eff * (rss / best_rss).ln() <= CHI2_1_95
+}
+
+/// The 95 % profile interval of a grid-searched parameter: the run of points around the best
+/// (`best` is `(RSS, value)`) that are as good as it ([`as_good`]), each end taken out to the
+/// first point that is not (the crossing lies between them, so the interval covers it), or to the
+/// end of the grid. `scored` holds `(value, RSS, N_eff)`; the other parameters are held where
+/// the search had them, so the interval is conditional on them. `None` without a positive best.
+fn profile_interval(scored: &[(f64, f64, f64)], best: (f64, f64)) -> Option<(f64, f64)> {
+    let (best_rss, best_value) = best;
+    if best_rss.is_nan() || best_rss <= 0.0 {
+        return None;
+    }
+    let mut points = scored.to_vec();
+    points.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let at = points.iter().position(|p| p.0 == best_value)?;
+    let good = |p: &(f64, f64, f64)| as_good(p.1, p.2, best_rss);
+    let lo = points[..at]
+        .iter()
+        .rev()
+        .find(|p| !good(p))
+        .map_or(points[0].0, |p| p.0);
+    let hi = points[at + 1..]
+        .iter()
+        .find(|p| !good(p))
+        .map_or(points[points.len() - 1].0, |p| p.0);
+    Some((lo, hi))
 }
 
 /// Write a balance's fitted coefficients (and fitted breakaway levels) back into the spec,
@@ -1378,6 +1419,25 @@ mod tests {
             (2.8e-2, 2.5, 200.0),
         ];
         assert_eq!(smallest_as_good(&shown, (2.476, 5e-3)), (2.476, 5e-3));
+    }
+
+    #[test]
+    fn a_grid_parameter_gets_the_profile_interval_that_covers_the_crossing() {
+        // RSS = 100 + (g - 5)² on 100 effective samples: 100 ln(RSS / 100) = 3.84 at
+        // |g - 5| = 1.978. On a grid of step 0.5 the last points as good as the best are 3.5 and
+        // 6.5; the interval reaches out to 3.0 and 7.0, which holds the crossing.
+        let scored: Vec<(f64, f64, f64)> = (0..=20)
+            .map(|i| {
+                let g = 0.5 * i as f64;
+                (g, 100.0 + (g - 5.0).powi(2), 100.0)
+            })
+            .rev()
+            .collect();
+        assert_eq!(profile_interval(&scored, (100.0, 5.0)), Some((3.0, 7.0)));
+        // A flat profile reaches the grid's ends; no positive best, no interval.
+        let flat: Vec<(f64, f64, f64)> = (0..5).map(|i| (i as f64, 100.0, 100.0)).collect();
+        assert_eq!(profile_interval(&flat, (100.0, 2.0)), Some((0.0, 4.0)));
+        assert_eq!(profile_interval(&flat, (0.0, 2.0)), None);
     }
 
     fn data(u: Vec<f64>) -> Dataset {
