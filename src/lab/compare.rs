@@ -134,6 +134,13 @@ pub fn compare(
         Mode::FreeRun => free_run(model, data, pos_unit),
         Mode::InverseDynamics => {
             let fit = balance(&model.spec, data, prep)?.evaluate();
+            if let Some(why) = fit.degenerate() {
+                anyhow::bail!(
+                    "{}: the balance of model {}: {why}",
+                    data.origin,
+                    model.name
+                );
+            }
             id_comparison(&fit, force_unit, "model parameters as given")
         }
         Mode::KStep => k_step(model, data, prep, k.max(1), pos_unit),

@@ -265,6 +265,13 @@ pub fn diagnose(
     // balance's scale (the pneumatic coupling fitted with the declared mass as the reference),
     // the start's own fit would be in other units than the candidates'.
     let (_, base) = fit_spec(&base_spec, data, d, None)?;
+    if let Some(why) = base.degenerate() {
+        anyhow::bail!(
+            "{}: the balance of model {}: {why}; no candidate can be judged on it",
+            data.origin,
+            model.name
+        );
+    }
     for (name, _) in &drive {
         base_spec.set_free(name, false)?;
     }

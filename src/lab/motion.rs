@@ -35,6 +35,9 @@ pub const MOTION_NOISE_SIGMAS: f64 = 4.0;
 /// the light filter's tails reach a few samples into a rest).
 pub const MOTION_SPEED_SHARE: f64 = 0.02;
 
+/// Below this share of the moving samples surely sliding, the mask is not used.
+pub const MIN_MASKED_SHARE: f64 = 0.05;
+
 /// Replace the moving samples' columns of `terms` by the masked balance: `build` makes the same
 /// terms, in the same order, on the signals it is given (the lightly filtered ones here).
 pub fn in_motion(
@@ -50,6 +53,15 @@ pub fn in_motion(
     let light_hz = (LIGHT_CORNER_PER_RATE / d.dt).max(d.cutoff_hz);
     let light = prepare(raw, Some(light_hz));
     let mask = motion_mask(raw, d, &light);
+    // Where the mask keeps almost none of the moving samples, the record does not resolve its
+    // stops (a limit cycle at 100 Hz: the motion between samples reads as the sensor's noise and
+    // lifts the threshold over every speed); masked, the balance would be zero everywhere and
+    // judge nothing, so the moving samples keep their own columns.
+    let moving = (0..n).filter(|&k| d.valid[k]).count();
+    let kept = (0..n).filter(|&k| d.valid[k] && mask[k] > 0.0).count();
+    if (kept as f64) < MIN_MASKED_SHARE * moving as f64 {
+        return Ok(());
+    }
     let mut cols: Vec<Term> = Vec::with_capacity(terms.len());
     build(&light, &mut cols)?;
     if cols.len() != terms.len() || cols.iter().zip(terms.iter()).any(|(a, b)| a.name != b.name) {
@@ -118,6 +130,61 @@ fn speed_noise_gain(cutoff_hz: f64, dt: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_record_that_does_not_resolve_its_stops_keeps_its_own_columns() {
+        // A limit cycle sampled at 100 Hz: 7 Hz, 14 samples a period, the motion between
+        // samples larger than the filter leaves of it. The mask would keep none of the moving
+        // samples and the masked balance would be zero on every one.
+        let (dt, n) = (0.01, 2000);
+        let time: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
+        let d = Dataset {
+            origin: "cycle".into(),
+            output: time
+                .iter()
+                .map(|t| 0.01 + 0.005 * (std::f64::consts::TAU * 7.0 * t).sin())
+                .collect(),
+            input: time
+                .iter()
+                .map(|t| (std::f64::consts::TAU * 7.0 * t).cos().signum())
+                .collect(),
+            time,
+            supply: None,
+            current: None,
+        };
+        let prep = prepare(&d, None);
+        let light = prepare(&d, Some((LIGHT_CORNER_PER_RATE / dt).max(prep.cutoff_hz)));
+        let mask = motion_mask(&d, &prep, &light);
+        let moving = prep.valid.iter().filter(|v| **v).count();
+        let kept = (0..n).filter(|&k| prep.valid[k] && mask[k] > 0.0).count();
+        assert!(moving > n / 2, "{moving} moving samples");
+        assert!(kept * 20 < moving, "{kept} of {moving} kept");
+        let own: Vec<f64> = prep.v.clone();
+        let mut terms = vec![Term {
+            name: "v".into(),
+            free: true,
+            value: 1.0,
+            bounds: (0.0, 1.0),
+            col: own.clone(),
+            dry: None,
+        }];
+        in_motion(&d, &prep, &mut terms, &|light, t| {
+            t.push(Term {
+                name: "v".into(),
+                free: true,
+                value: 1.0,
+                bounds: (0.0, 1.0),
+                col: light.v.clone(),
+                dry: None,
+            });
+            Ok(())
+        })
+        .expect("balance");
+        assert!(
+            terms[0].col == own,
+            "the moving samples' columns were masked away"
+        );
+    }
 
     #[test]
     fn the_motion_mask_marks_the_hops_and_never_a_held_load() {

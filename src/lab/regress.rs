@@ -162,6 +162,28 @@ impl IdFit {
         (self.target.iter().map(|t| (t - mean).powi(2)).sum::<f64>() / n).sqrt()
     }
 
+    /// Why this balance cannot judge a model on its record, if it cannot: no moving sample, a
+    /// residual that is not a number, or a force to explain (the target) that is the same on
+    /// every moving sample, against which any model fits perfectly (an NRMSE of 0 or of 0/0).
+    pub fn degenerate(&self) -> Option<String> {
+        let n = self.target.len();
+        if n == 0 {
+            return Some("no moving sample to balance".into());
+        }
+        if !self.rss.is_finite() {
+            return Some(format!("its residual is not a number (RSS {})", self.rss));
+        }
+        if self.reference() == 0.0 {
+            return Some(format!(
+                "the force it explains is {} on all {n} moving samples: nothing in the record \
+                 drives the balance (a command the model's drive ignores, a drive held at a \
+                 limit?)",
+                self.target[0]
+            ));
+        }
+        None
+    }
+
     /// This fit's NRMSE on another fit's reference: a candidate judged against its base on the
     /// base's scale, whatever it does to its own target (a drive scale, a dead zone, a dead
     /// time reshape it).
@@ -1450,6 +1472,31 @@ mod tests {
             supply: None,
             current: None,
         }
+    }
+
+    #[test]
+    fn a_balance_with_nothing_to_explain_is_degenerate_and_says_why() {
+        // A body that moves while the command stays 0: the force to explain (the drive's) is 0
+        // on every moving sample, so any model would fit it perfectly.
+        let n = 3000;
+        let mut raw = data(vec![0.0; n]);
+        raw.output = raw
+            .time
+            .iter()
+            .map(|t| 0.01 * (std::f64::consts::TAU * 2.0 * t).sin())
+            .collect();
+        let d = crate::lab::signals::prepare(&raw, None);
+        let spec = PlantSpec::new(Family::LinearAxis)
+            .with_effect(EffectKind::Viscous)
+            .expect("viscous");
+        let fit = balance(&spec, &raw, &d).expect("balance").evaluate();
+        let why = fit.degenerate().expect("degenerate");
+        assert!(why.contains("is 0 on all"), "{why}");
+        // Driven, the same motion is a balance to judge.
+        raw.input = raw.output.iter().map(|y| 100.0 * y).collect();
+        let d = crate::lab::signals::prepare(&raw, None);
+        let fit = balance(&spec, &raw, &d).expect("balance").evaluate();
+        assert_eq!(fit.degenerate(), None);
     }
 
     #[test]
