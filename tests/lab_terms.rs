@@ -62,6 +62,14 @@ fn a_declared_cogging_term_is_fitted_to_the_true_pitch_and_amplitude() {
             .unwrap_or_else(|| panic!("no {name} in {fit:#}"))
             .clone()
     };
+    // No parameter of the fitted model ended at its bound.
+    let at_bound: Vec<&serde_json::Value> = fit["parameters"]
+        .as_array()
+        .expect("parameters")
+        .iter()
+        .filter(|p| p["status"] == "at_bound")
+        .collect();
+    assert!(at_bound.is_empty(), "at a bound: {at_bound:?}");
     let p = param("cogging.pitch");
     let got = p["value"].as_f64().expect("pitch");
     assert!((got / pitch - 1.0).abs() < 0.02, "pitch {got} vs {pitch}");
