@@ -8,7 +8,7 @@
 
 use std::collections::BTreeMap;
 
-use actuatord::lab::diagnose::{diagnose, DiagnoseOptions};
+use actuatord::lab::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
 use actuatord::lab::signals::prepare;
 use actuatord::lab::structure::Against;
 use actuatord::lab::Model;
@@ -69,27 +69,33 @@ struct Outcome {
     base: f64,
 }
 
-fn run(plant: Plant, hidden: Option<Hidden>, seed: u64, length: f64) -> Outcome {
-    let truth = Truth::draw(plant, hidden, seed);
-    // A supply swing takes the whole record (one period of the swing is 11 s).
-    let length = if truth.supply_varies { 1.0 } else { length };
-    let data = simulate_for(&truth, seed, length);
+/// The diagnosis of a record of `truth` (`length` of the sweep's) with the model of its plant's
+/// base effects, the hidden one left out.
+fn diagnosed(truth: &Truth, seed: u64, length: f64) -> Diagnosis {
+    let data = simulate_for(truth, seed, length);
     let prep = prepare(&data, None);
     let with: Vec<String> = truth
         .base_effects()
         .into_iter()
-        .filter(|e| Some(*e) != hidden.map(Hidden::lab_name))
+        .filter(|e| Some(*e) != truth.hidden.map(Hidden::lab_name))
         .map(String::from)
         .collect();
     let model = Model::from_names(truth.family(), &with).expect("model");
-    let dg = diagnose(
+    diagnose(
         &model,
         &data,
         &prep,
         &DiagnoseOptions::default(),
         &|_, _, _| {},
     )
-    .expect("diagnosis runs");
+    .expect("diagnosis runs")
+}
+
+fn run(plant: Plant, hidden: Option<Hidden>, seed: u64, length: f64) -> Outcome {
+    let truth = Truth::draw(plant, hidden, seed);
+    // A supply swing takes the whole record (one period of the swing is 11 s).
+    let length = if truth.supply_varies { 1.0 } else { length };
+    let dg = diagnosed(&truth, seed, length);
     if std::env::var("LAB_VERBOSE").is_ok() {
         eprintln!("  {truth:?}");
     }
@@ -212,18 +218,7 @@ fn a_delayed_valve_at_100_hz_is_named_dead_time() {
         let mut truth = Truth::draw(Plant::Pneumatic, Some(Hidden::DeadTime), seed);
         truth.dt = 0.01;
         truth.delay = 6;
-        let data = simulate_for(&truth, seed, 1.0);
-        let prep = prepare(&data, None);
-        let with: Vec<String> = truth.base_effects().into_iter().map(String::from).collect();
-        let model = Model::from_names(truth.family(), &with).expect("model");
-        let dg = diagnose(
-            &model,
-            &data,
-            &prep,
-            &DiagnoseOptions::default(),
-            &|_, _, _| {},
-        )
-        .expect("diagnosis runs");
+        let dg = diagnosed(&truth, seed, 1.0);
         lab_common::print_candidates(&dg);
         assert!(
             dg.nrmse_base.is_finite(),
