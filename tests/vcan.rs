@@ -5,12 +5,17 @@
 //! `scripts/vcan-run`, which provides them on kernels without CAN. Ignored in a plain
 //! `cargo test`; `scripts/test` runs it with `--ignored`.
 
+mod common;
 mod robust_common;
 
 use actuatord::bus::{parse_candump_line, Bus, BusEvent, Frame, SocketCanBus};
 use actuatord::device::{Emcy, FaultStatePdo, LoopStatusPdo, SensorPdo};
 use actuatord::supervise::{FaultKind, FaultState};
 use can_dbc::{Dbc, MessageId};
+use common::vcan::{
+    candump, candump_to, cansend, capture_drops, iface, interrupt, read_capture, realtime, root,
+    Proc, SIM_PRIORITY,
+};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
@@ -26,35 +31,6 @@ const RUN_SYNCS: usize = 2400;
 /// Plant time of the supply drop (SYNCs seen by the sim times the period).
 const FAULT_AT_S: f64 = 5.0;
 
-fn iface() -> String {
-    std::env::var("ACTUATORD_TEST_IFACE").unwrap_or_else(|_| "vcan0".into())
-}
-
-fn root(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
-}
-
-/// Kills a child when dropped, so a failing assertion leaves no process behind.
-struct Proc(Child);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-/// `candump -L` on the test interface, written to `path`.
-fn candump_to(path: &Path) -> Proc {
-    Proc(
-        realtime(CAPTURE_PRIORITY, "candump")
-            .args(["-L", &iface()])
-            .stdout(std::fs::File::create(path).expect("capture file"))
-            .spawn()
-            .expect("candump (can-utils) is installed"),
-    )
-}
-
 /// `actuator sim` on the test interface with the solenoid plant and `extra` arguments.
 fn sim_node(extra: &[&str]) -> Proc {
     Proc(
@@ -66,43 +42,6 @@ fn sim_node(extra: &[&str]) -> Proc {
     )
 }
 
-/// SCHED_FIFO priority of the simulated nodes: below the daemon's cycle (80 in the shipped
-/// configurations), above everything else. A real actuator answers from its own real-time
-/// controller; on the test machine's one guest CPU an ordinary process misses the sensor
-/// deadline whenever the guest hands the CPU to another for a few periods.
-const SIM_PRIORITY: u32 = 70;
-
-/// SCHED_FIFO priority of the `candump` captures the tests read: below the simulated nodes, and
-/// real-time too, or the two real-time processes leave it too little of the one guest CPU at
-/// 1 kHz and the socket drops frames before the capture sees them.
-const CAPTURE_PRIORITY: u32 = 60;
-
-/// `program` run under SCHED_FIFO at `priority` (through `chrt`, where the test may set it),
-/// else as it is.
-fn realtime(priority: u32, program: &str) -> Command {
-    let chrt_works = Command::new("chrt")
-        .args(["-f", &priority.to_string(), "true"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if chrt_works {
-        let mut c = Command::new("chrt");
-        c.args(["-f", &priority.to_string(), program]);
-        c
-    } else {
-        Command::new(program)
-    }
-}
-
-/// The frames of a `candump -L` capture, with their times.
-fn read_capture(path: &Path) -> Vec<(f64, Frame)> {
-    std::fs::read_to_string(path)
-        .expect("capture")
-        .lines()
-        .filter_map(|l| parse_candump_line(l).ok())
-        .map(|r| (r.time_s, r.frame))
-        .collect()
-}
-
 /// Time of the first SYNC: the cycle's clock starts there.
 fn first_sync(frames: &[(f64, Frame)]) -> f64 {
     frames
@@ -110,19 +49,6 @@ fn first_sync(frames: &[(f64, Frame)]) -> f64 {
         .find(|(_, f)| f.id() == 0x080)
         .map(|(t, _)| *t)
         .expect("SYNC captured")
-}
-
-fn interrupt(p: &mut Proc) {
-    // SAFETY: plain kill(2) on a child we own.
-    unsafe { libc::kill(p.0.id() as libc::pid_t, libc::SIGINT) };
-}
-
-fn cansend(frame: &str) {
-    let status = Command::new("cansend")
-        .args([&iface(), frame])
-        .status()
-        .expect("cansend (can-utils) is installed");
-    assert!(status.success(), "cansend {frame}");
 }
 
 struct Capture {
@@ -870,7 +796,12 @@ fn the_robust_controller_runs_over_vcan_against_the_motor_gear_node() {
         .filter(|(t, f)| f.id() == 0x190 && f.len() == 8 && (1.9..2.3).contains(&(t - t0)))
         .map(|(_, f)| SensorPdo::decode(f).expect("sensor").position)
         .collect();
-    assert!(angles.len() > 100, "{} sensor frames", angles.len());
+    assert!(
+        angles.len() > 100,
+        "{} sensor frames; the capture dropped {}",
+        angles.len(),
+        capture_drops(&capture_path)
+    );
     let mean = angles.iter().sum::<f64>() / angles.len() as f64;
     eprintln!(
         "vcan: robust controller at 1 kHz: 0.2 rad -> {mean:.4} rad over {} samples",
@@ -1177,13 +1108,7 @@ fn a_second_bus_gets_its_own_cycle_thread() {
     )
     .expect("write");
     let capture_path = dir.path().join("capture.log");
-    let mut candump = Proc(
-        realtime(CAPTURE_PRIORITY, "candump")
-            .args(["-L", "vcan0", "vcan1"])
-            .stdout(std::fs::File::create(&capture_path).expect("capture file"))
-            .spawn()
-            .expect("candump (can-utils) is installed"),
-    );
+    let mut candump = candump(&capture_path, &[], &["vcan0", "vcan1"]);
     let mut sim0 = sim_node(&[]);
     let mut sim1 = Proc(
         realtime(SIM_PRIORITY, env!("CARGO_BIN_EXE_actuator"))
@@ -1528,13 +1453,7 @@ fn the_interface_goes_down_and_up_while_the_daemon_runs() {
     let capture_path = dir.path().join("capture.log");
     let recording = dir.path().join("outage.mcap");
     // -D: candump keeps capturing through the outage.
-    let mut candump = Proc(
-        realtime(CAPTURE_PRIORITY, "candump")
-            .args(["-D", "-L", &iface()])
-            .stdout(std::fs::File::create(&capture_path).expect("capture file"))
-            .spawn()
-            .expect("candump (can-utils) is installed"),
-    );
+    let mut candump = candump(&capture_path, &["-D"], &[&iface()]);
     let mut sim = sim_node(&[]);
     let mut daemon = Proc(
         Command::new(env!("CARGO_BIN_EXE_actuatord"))

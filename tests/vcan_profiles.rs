@@ -8,60 +8,17 @@
 //! `scripts/vcan-run`, which provides them on kernels without CAN. Ignored in a plain
 //! `cargo test`; `scripts/test` runs it with `--ignored`.
 
-use actuatord::bus::{parse_candump_line, Frame};
+mod common;
+
+use actuatord::bus::Frame;
 use actuatord::device::Emcy;
 use actuatord::supervise::FaultKind;
+use common::vcan::{
+    candump_to, cansend, iface, interrupt, read_capture, realtime, root, Proc, SIM_PRIORITY,
+};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::Duration;
-
-fn iface() -> String {
-    std::env::var("ACTUATORD_TEST_IFACE").unwrap_or_else(|_| "vcan0".into())
-}
-
-fn root(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
-}
-
-/// Kills a child when dropped, so a failing assertion leaves no process behind.
-struct Proc(Child);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-/// SCHED_FIFO priorities as in the main vcan suite: the simulated node below the daemon's
-/// cycle (80), the capture below the node.
-const SIM_PRIORITY: u32 = 70;
-const CAPTURE_PRIORITY: u32 = 60;
-
-/// `program` under SCHED_FIFO at `priority` where `chrt` may set it, else as it is.
-fn realtime(priority: u32, program: &str) -> Command {
-    let chrt_works = Command::new("chrt")
-        .args(["-f", &priority.to_string(), "true"])
-        .status()
-        .is_ok_and(|s| s.success());
-    if chrt_works {
-        let mut c = Command::new("chrt");
-        c.args(["-f", &priority.to_string(), program]);
-        c
-    } else {
-        Command::new(program)
-    }
-}
-
-fn candump_to(path: &Path) -> Proc {
-    Proc(
-        realtime(CAPTURE_PRIORITY, "candump")
-            .args(["-L", &iface()])
-            .stdout(std::fs::File::create(path).expect("capture file"))
-            .spawn()
-            .expect("candump (can-utils) is installed"),
-    )
-}
 
 fn sim_node(args: &[&str]) -> Proc {
     Proc(
@@ -83,29 +40,6 @@ fn daemon(config: &Path, duration_s: f64) -> Proc {
             .spawn()
             .expect("actuatord starts"),
     )
-}
-
-fn interrupt(p: &mut Proc) {
-    // SAFETY: plain kill(2) on a child we own.
-    unsafe { libc::kill(p.0.id() as libc::pid_t, libc::SIGINT) };
-}
-
-fn cansend(frame: &str) {
-    let status = Command::new("cansend")
-        .args([&iface(), frame])
-        .status()
-        .expect("cansend (can-utils) is installed");
-    assert!(status.success(), "cansend {frame}");
-}
-
-/// The frames of a `candump -L` capture, with their times.
-fn read_capture(path: &Path) -> Vec<(f64, Frame)> {
-    std::fs::read_to_string(path)
-        .expect("capture")
-        .lines()
-        .filter_map(|l| parse_candump_line(l).ok())
-        .map(|r| (r.time_s, r.frame))
-        .collect()
 }
 
 struct Capture {

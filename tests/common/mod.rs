@@ -1,0 +1,4 @@
+//! Helpers shared by the integration tests, one module per kind of rig.
+#![allow(dead_code)]
+
+pub mod vcan;
