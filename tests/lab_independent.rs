@@ -9,6 +9,7 @@
 use std::collections::BTreeMap;
 
 use actuatord::lab::diagnose::{diagnose, DiagnoseOptions, Diagnosis};
+use actuatord::lab::discover::discover;
 use actuatord::lab::signals::prepare;
 use actuatord::lab::structure::Against;
 use actuatord::lab::Model;
@@ -231,6 +232,104 @@ fn a_delayed_valve_at_100_hz_is_named_dead_time() {
             c.holdout_improvement > 0.3,
             "seed {seed}: held-out {}",
             c.holdout_improvement
+        );
+    }
+}
+
+/// The published case of a geared motor behind an H-bridge, driven by a voltage staircase: a
+/// dead zone in the drive, a model with viscous friction alone. On a staircase the command's
+/// sign and the direction of motion move together, so a dead zone and dry friction explain the
+/// same error: the lab must say that it cannot decide, name both, and say which record would.
+/// That record (the same axis tracking sines, the command reversing while it moves) decides.
+#[test]
+fn a_staircase_leaves_a_dead_zone_and_dry_friction_undecided_and_tracking_decides() {
+    let model = Model::from_names("linear_axis", &["viscous".to_string()]).expect("model");
+    let run = |truth: &Truth, seed: u64, length: f64| {
+        let data = simulate_for(truth, seed, length);
+        let prep = prepare(&data, None);
+        let dg = diagnose(
+            &model,
+            &data,
+            &prep,
+            &DiagnoseOptions::default(),
+            &|_, _, _| {},
+        )
+        .expect("diagnosis runs");
+        lab_common::print_candidates(&dg);
+        dg
+    };
+    for seed in lab_common::sweep_seeds(1..=3) {
+        let mut truth = Truth::draw(Plant::ServoAxis, Some(Hidden::Deadzone), seed);
+        truth.coulomb = (0.0, 0.0);
+        // A geared motor: its mechanical time constant m / d of 20 ms, each step held 1 s.
+        let ratio = truth.viscous.1 / truth.viscous.0;
+        truth.viscous = (truth.mass / 0.02, truth.mass / 0.02 * ratio);
+        truth.staircase = Some(1.0);
+        let dg = run(&truth, seed, 5.0);
+        eprintln!(
+            "staircase seed {seed}: verdict {} {:?}, z {:?}",
+            dg.verdict_name(),
+            dg.undecided,
+            dg.rivals.iter().map(|r| r.z).collect::<Vec<_>>()
+        );
+        assert_eq!(dg.verdict_name(), "undecided", "seed {seed}");
+        assert_eq!(dg.verdict, None);
+        for effect in ["deadzone", "coulomb"] {
+            assert!(
+                dg.undecided.iter().any(|e| e == effect),
+                "seed {seed}: {:?}",
+                dg.undecided
+            );
+        }
+        let record = dg.separating_record.as_deref().unwrap_or_default();
+        assert!(
+            record.contains("deadzone follows the command's size")
+                && record.contains("coulomb follows the direction of motion")
+                && record.contains("while the command reverses"),
+            "seed {seed}: {record}"
+        );
+        let json = dg.to_json();
+        assert_eq!(json["verdict"], "undecided");
+        assert!(json["undecided"]["effects"]
+            .as_array()
+            .is_some_and(|a| a.len() >= 2));
+        if seed == 1 {
+            // The ladder stops there instead of adding one of them.
+            let data = simulate_for(&truth, seed, 5.0);
+            let prep = prepare(&data, None);
+            let found = discover(
+                &model,
+                &data,
+                &prep,
+                &DiagnoseOptions::default(),
+                &|_, _| {},
+            )
+            .expect("discover runs");
+            assert!(
+                found.steps.is_empty(),
+                "{:?}",
+                found.steps.iter().map(|s| &s.effect).collect::<Vec<_>>()
+            );
+            assert!(!found.converged);
+            assert_eq!(found.undecided, dg.undecided);
+            assert!(
+                found
+                    .stopped_because()
+                    .contains("cannot decide between deadzone, coulomb"),
+                "{}",
+                found.stopped_because()
+            );
+        }
+
+        // The record it asks for: the same axis in its tracking loop.
+        truth.staircase = None;
+        let dg = run(&truth, seed, 1.0);
+        eprintln!("tracking seed {seed}: verdict {}", dg.verdict_name());
+        assert_eq!(
+            dg.verdict_name(),
+            "deadzone",
+            "seed {seed}: {:?}",
+            dg.undecided
         );
     }
 }

@@ -15,6 +15,7 @@ use super::model::Model;
 use super::regress::{balance, fit_spec, fit_spec_on, representable, IdFit};
 use super::signals::Prepared;
 use super::structure::{self, ResidualMap};
+use super::undecided;
 use crate::ident::f_test_nested;
 use crate::physics::{EffectKind, Family, PlantSpec};
 
@@ -95,6 +96,14 @@ pub struct Diagnosis {
     /// True when the residual holds a structure that no candidate explains (see
     /// [`super::structure`]): the verdict is `unexplained`, no effect of the catalogue.
     pub unexplained: bool,
+    /// Candidates the record cannot tell apart ([`super::undecided`]), the best first: when
+    /// not empty, there is no verdict, and the set is the answer.
+    pub undecided: Vec<String>,
+    /// Each member of the undecided set after the first, with its statistic against the first.
+    #[serde(skip)]
+    pub rivals: Vec<undecided::Rival>,
+    /// What each member of the undecided set follows and the record that would decide.
+    pub separating_record: Option<String>,
     /// The residual of the best model (the verdict's candidate, else the model as it is)
     /// mapped against every signal, with the structures left in it.
     pub residual_map: ResidualMap,
@@ -199,8 +208,6 @@ fn evidence(
     effects::of(kind).map_or_else(|_| String::new(), |e| e.evidence(&ev))
 }
 
-/// Parameters an effect declares (a spring whose stiffness ends at zero is still a spring, not a
-/// simpler offset).
 /// True when `c` has fewer parameters than `best` and `best` does not cut its residual by
 /// `min_improvement` (RMS, in the balance's units).
 fn simpler_as_good(c: &Candidate, best: &Candidate, min_improvement: f64) -> bool {
@@ -208,6 +215,8 @@ fn simpler_as_good(c: &Candidate, best: &Candidate, min_improvement: f64) -> boo
         && 1.0 - best.residual_ratio / c.residual_ratio.max(f64::MIN_POSITIVE) < min_improvement
 }
 
+/// Parameters an effect declares (a spring whose stiffness ends at zero is still a spring, not a
+/// simpler offset).
 fn complexity(c: &Candidate) -> usize {
     // A declared term counts the parameters it was fitted with.
     EffectKind::from_name(&c.effect).map_or_else(
@@ -393,13 +402,32 @@ pub fn diagnose(
         (Some(_), None) => (true, base_map),
         (None, None) => (false, base_map),
     };
-    let verdict = chosen.filter(|_| !unexplained).map(|c| c.effect.clone());
+    // Said when the data do not decide: candidates the record cannot tell from the chosen one
+    // are reported with it as one set, and none of them is the verdict.
+    let rivals = match chosen.filter(|_| !unexplained) {
+        Some(c) => undecided::rivals(c, &candidates, d.n_eff_per_sample, opts.min_improvement),
+        None => Vec::new(),
+    };
+    let undecided: Vec<String> = match chosen {
+        Some(c) if !rivals.is_empty() => std::iter::once(c.effect.clone())
+            .chain(rivals.iter().map(|r| r.effect.clone()))
+            .collect(),
+        _ => Vec::new(),
+    };
+    let separating_record =
+        (!undecided.is_empty()).then(|| undecided::separating_record(&undecided));
+    let verdict = chosen
+        .filter(|_| !unexplained && undecided.is_empty())
+        .map(|c| c.effect.clone());
     Ok(Diagnosis {
         mode: "inverse_dynamics".into(),
         nrmse_base: base.nrmse,
         candidates,
         verdict,
         unexplained,
+        undecided,
+        rivals,
+        separating_record,
         residual_map,
         samples,
         effective_samples: n_eff,
@@ -575,6 +603,7 @@ impl Diagnosis {
         match (&self.verdict, self.unexplained) {
             (Some(v), _) => v,
             (None, true) => "unexplained",
+            (None, false) if !self.undecided.is_empty() => "undecided",
             (None, false) => "none",
         }
     }
@@ -599,6 +628,11 @@ impl Diagnosis {
                 "parameters": c.parameters.iter().map(|(n, v)| serde_json::json!({"name": n, "value": v})).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
             "verdict": self.verdict_name(),
+            "undecided": (!self.undecided.is_empty()).then(|| serde_json::json!({
+                "effects": self.undecided,
+                "z": self.rivals.iter().map(|r| serde_json::json!({"effect": r.effect, "z": r.z})).collect::<Vec<_>>(),
+                "separated_by": self.separating_record,
+            })),
             "structure": self.residual_map.structures,
             "residual_map": self.residual_map.rows,
             "samples": self.samples,

@@ -1,5 +1,6 @@
 //! The user's loop in one call: diagnose, add the effect named, refit, and again, until no
-//! candidate is significant. Each rung of the ladder keeps the error before and after, the
+//! candidate is significant (or the error is not of the catalogue, or the record cannot decide
+//! between candidates). Each rung of the ladder keeps the error before and after, the
 //! held-out drop and the evidence that named it.
 
 use serde::Serialize;
@@ -57,6 +58,10 @@ pub struct Discovery {
     /// Structure the last diagnosis found in the residual that no candidate explains: the
     /// ladder stops there, as no effect of the catalogue is the answer.
     pub unexplained: Vec<Structure>,
+    /// Candidates the last diagnosis could not tell apart, and the record that would: the
+    /// ladder stops there rather than pick one by a hair ([`super::undecided`]).
+    pub undecided: Vec<String>,
+    pub separating_record: Option<String>,
 }
 
 /// Run the loop from `model`. `progress(step, effect)` is called as rungs are added.
@@ -110,10 +115,12 @@ pub fn discover(
                 } else {
                     Vec::new()
                 },
+                undecided: dg.undecided.clone(),
+                separating_record: dg.separating_record.clone(),
             })
         };
         let Some((effect, c)) = next.filter(|_| steps.len() < MAX_STEPS) else {
-            let converged = dg.verdict.is_none();
+            let converged = dg.verdict.is_none() && dg.undecided.is_empty();
             return finish(steps, None, converged);
         };
         let addition = super::diagnose::Addition::named(&current.spec, &effect)
@@ -149,6 +156,29 @@ pub fn discover(
 }
 
 impl Discovery {
+    /// Why the ladder stopped, in a sentence that starts with what it added (the text of
+    /// `discover` and of the report's ladder).
+    pub fn stopped_because(&self) -> String {
+        let n = self.steps.len();
+        if !self.unexplained.is_empty() {
+            format!("{n} added, then stopped at structure no effect of the catalogue explains")
+        } else if self.refused.is_some() {
+            format!("{n} added, then stopped at a collapsed fit")
+        } else if !self.undecided.is_empty() {
+            format!(
+                "{n} added, then stopped: the record cannot decide between {} ({})",
+                self.undecided.join(", "),
+                self.separating_record.as_deref().unwrap_or_default()
+            )
+        } else if n == 0 {
+            "nothing added: no candidate improves the model significantly".to_string()
+        } else if self.converged {
+            format!("{n} added, then nothing more is significant")
+        } else {
+            format!("stopped after {n} steps (at most {MAX_STEPS})")
+        }
+    }
+
     /// The JSON of `discover --json`: `{"nrmse_base", "steps": [{"effect", "nrmse",
     /// "evidence", ...}], "with", "nrmse_final", ...}`.
     pub fn to_json(&self) -> serde_json::Value {
@@ -159,6 +189,10 @@ impl Discovery {
             "nrmse_final": self.nrmse_final,
             "converged": self.converged,
             "unexplained": self.unexplained,
+            "undecided": (!self.undecided.is_empty()).then(|| serde_json::json!({
+                "effects": self.undecided,
+                "separated_by": self.separating_record,
+            })),
             "refused": self.refused.as_ref().map(|(effect, why)| serde_json::json!({
                 "effect": effect, "why": why})),
         })

@@ -24,6 +24,7 @@
 //! | [`structure`] | the residual mapped against every signal; structure no effect of the catalogue makes (periodic in position, an oscillation, a drift) |
 //! | [`collapse`] | a fit that collapsed (a parameter at a bound it cannot reach, a vanished residual): refused |
 //! | [`diagnose`] | candidate effects, their refit, penalised ranking and verdict |
+//! | [`undecided`] | candidates the record cannot tell apart (Vuong's test), and the record that would |
 //! | [`discover`] | diagnose, add the verdict, refit, repeat: the ladder of effects |
 //! | [`methods`] | the identification methods of `fit`: least squares, recursive, output error |
 //! | [`report`] | HTML page with SVG plots |
@@ -52,6 +53,7 @@ pub mod signals;
 pub mod structure;
 mod svg;
 pub mod terms;
+pub mod undecided;
 
 pub use command::Command;
 pub use compare::{compare, Comparison, Mode};

@@ -255,7 +255,8 @@ pub fn ladder_section(
     let _ = write!(
         html,
         "<h2>Discover: the ladder</h2><p>From <b>{}</b>, the effect each diagnosis named added and \
-         the model refitted, until no candidate is significant. NRMSE of the diagnosis (free \
+         the model refitted, until no candidate is significant (or none of the catalogue explains the \
+         error, or the record cannot decide between candidates). NRMSE of the diagnosis (free \
          parameters refitted, rest and motion).</p><table><tr><th>step</th><th>effect added</th>\
          <th>NRMSE before</th><th>after</th><th>held-out drop</th><th>ΔBIC</th><th>evidence</th></tr>",
         esc(&found.start.name)
@@ -279,21 +280,7 @@ pub fn ladder_section(
     let _ = write!(
         html,
         "<p>{}; final model with {}: NRMSE {:.4}.</p>",
-        if !found.unexplained.is_empty() {
-            format!(
-                "{} added, then stopped at structure no effect of the catalogue explains",
-                found.steps.len()
-            )
-        } else if found.steps.is_empty() {
-            "Nothing added: no candidate improves the model significantly".to_string()
-        } else if found.converged {
-            format!(
-                "{} added, then nothing more is significant",
-                found.steps.len()
-            )
-        } else {
-            format!("Stopped after {} steps", found.steps.len())
-        },
+        esc(&found.stopped_because()),
         if with.is_empty() {
             "no effects".to_string()
         } else {

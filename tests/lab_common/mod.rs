@@ -89,6 +89,9 @@ pub fn print_candidates(dg: &actuatord::lab::diagnose::Diagnosis) {
             c.parameters
         );
     }
+    for r in &dg.rivals {
+        eprintln!("    undecided against {}: z = {:?}", r.effect, r.z);
+    }
 }
 
 /// A small deterministic generator for parameter variation.

@@ -175,6 +175,9 @@ pub struct Truth {
     pub cogging: Option<(f64, f64, f64)>,
     /// Vibration: amplitude (N), frequency (Hz), phase (rad).
     pub vibration: Option<(f64, f64, f64)>,
+    /// Open loop: a staircase of commands held this long each (s) instead of the tracking
+    /// loop (see [`Staircase`]).
+    pub staircase: Option<f64>,
 }
 
 impl Truth {
@@ -219,6 +222,7 @@ impl Truth {
             supply_varies: false,
             cogging: None,
             vibration: None,
+            staircase: None,
         };
         // A force scale of the plant: what its drive typically delivers.
         let force_scale;
@@ -517,6 +521,7 @@ pub fn simulate_for(t: &Truth, seed: u64, length: f64) -> Dataset {
         (y / t.quantum).round() * t.quantum
     };
     let mut y = measure(x, &mut g);
+    let mut stairs = Staircase::new(t, seed);
     for k in 0..samples {
         let time = k as f64 * t.dt;
         let shape = waves
@@ -534,7 +539,11 @@ pub fn simulate_for(t: &Truth, seed: u64, length: f64) -> Dataset {
             (Plant::Solenoid, Some((k_s, f0))) => (k_s * (r - t.sensor_zero) + f0) / drive_gain,
             _ => 0.0,
         };
-        let u_raw = ff + kp * e + ki * integ + kd * deriv;
+        let u_raw = if t.staircase.is_some() {
+            stairs.level(time, y - t.sensor_zero)
+        } else {
+            ff + kp * e + ki * integ + kd * deriv
+        };
         let u = u_raw.clamp(u_lo, u_hi);
         if u == u_raw {
             integ += e * t.dt;
@@ -635,4 +644,49 @@ pub fn simulate_for(t: &Truth, seed: u64, length: f64) -> Dataset {
         y = measure(x, &mut g);
     }
     d
+}
+
+/// An operator's open-loop test of a drive: a staircase of commands held for a while each,
+/// up from zero to three times a reference level (the dead zone where there is one, else the
+/// command that overcomes the Coulomb friction) in steps of half of it, down through zero to
+/// the same level negative and back. Nothing in it moves the command's sign and the direction
+/// of motion apart but the few samples in which the body slows down at a zero crossing, which a
+/// body whose mechanical time constant is short against the hold leaves very few.
+pub struct Staircase {
+    step: f64,
+    hold_s: f64,
+}
+
+/// Steps from zero to the staircase's top.
+const STAIRS: i64 = 6;
+
+impl Staircase {
+    fn new(t: &Truth, _seed: u64) -> Staircase {
+        let reference = t.deadzone.unwrap_or_else(|| {
+            let dry = 0.5 * (t.coulomb.0 + t.coulomb.1);
+            match t.plant {
+                Plant::ServoAxis => dry / t.force_per_command,
+                Plant::Solenoid => dry / (t.magnet_gain * t.coil_gain),
+                Plant::Pneumatic => dry / (t.mass / t.chamber_tau * t.k_down.max(t.k_up)),
+            }
+        });
+        Staircase {
+            step: 0.5 * reference.max(1e-9),
+            hold_s: t.staircase.unwrap_or(1.0),
+        }
+    }
+
+    /// The command at `time` (the body's position `_x` does not steer it).
+    fn level(&mut self, time: f64, _x: f64) -> f64 {
+        let k = (time / self.hold_s).floor() as i64 % (4 * STAIRS);
+        // A triangle over the steps: 0 .. N .. 0 .. -N .. 0.
+        let n = if k <= STAIRS {
+            k
+        } else if k <= 3 * STAIRS {
+            2 * STAIRS - k
+        } else {
+            k - 4 * STAIRS
+        };
+        self.step * n as f64
+    }
 }

@@ -433,6 +433,26 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                         s.hint()
                     )
                 }
+                (None, _) if !dg.undecided.is_empty() => {
+                    let z = dg
+                        .rivals
+                        .iter()
+                        .map(|r| match r.z {
+                            Some(z) => format!("{} z = {z:+.2}", r.effect),
+                            None => format!("{} z not computable (identical fits)", r.effect),
+                        })
+                        .collect::<Vec<_>>()
+                        .join(", ");
+                    println!(
+                        "\nverdict: undecided between {} — each explains the error significantly, and this record \
+                         cannot tell them apart (Vuong's test of {} against the others: {z}; |z| < {} is no decision).\n\
+                         {}.",
+                        dg.undecided.join(", "),
+                        dg.undecided[0],
+                        actuatord::lab::undecided::DECIDING_Z,
+                        dg.separating_record.as_deref().unwrap_or_default()
+                    )
+                }
                 _ => println!("\nverdict: none — no candidate improves the fit significantly and the residual holds no structure"),
             }
             Ok(())
@@ -512,30 +532,7 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             let with: Vec<&str> = found.model.effects().iter().map(|e| e.name()).collect();
             println!(
                 "\n{}; final model with {}: NRMSE {:.4}",
-                if !found.unexplained.is_empty() {
-                    format!(
-                        "{} added, then stopped at structure no effect of the catalogue explains",
-                        found.steps.len()
-                    )
-                } else if found.steps.is_empty() {
-                    "nothing added: no candidate improves the model significantly".to_string()
-                } else if found.refused.is_some() {
-                    format!(
-                        "{} added, then stopped at a collapsed fit",
-                        found.steps.len()
-                    )
-                } else if found.converged {
-                    format!(
-                        "{} added, then nothing more is significant",
-                        found.steps.len()
-                    )
-                } else {
-                    format!(
-                        "stopped after {} steps (at most {})",
-                        found.steps.len(),
-                        actuatord::lab::discover::MAX_STEPS
-                    )
-                },
+                found.stopped_because(),
                 if with.is_empty() {
                     "no effects".to_string()
                 } else {

@@ -2,7 +2,7 @@
 //! ([`crate::lab::regress_gear`]), searched on a grid; its signature is a residual that bursts
 //! after the drive reverses.
 
-use super::{geometric, Cx, Evidence, Gear, Grid, LabEffect};
+use super::{geometric, Cx, Evidence, Gear, Grid, LabEffect, Separation};
 use crate::lab::params::Key;
 use crate::lab::signals::{abs_quantile, Prepared};
 use crate::physics::{EffectKind, Family, PlantSpec};
@@ -61,6 +61,13 @@ impl LabEffect for Backlash {
     /// against the plant's 5 by 1.3 % of the residual).
     fn prefers_smallest(&self) -> bool {
         true
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "the drive's direction of travel since it last reversed",
+            shown_by: "reversals of the motion at more than one speed, the load-side position recorded",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

@@ -2,7 +2,7 @@
 //! factor when the friction follows the supply); its signature is a residual that steps with
 //! the sign of velocity.
 
-use super::{mean_where, Cx, Evidence, LabEffect};
+use super::{mean_where, Cx, Evidence, LabEffect, Separation};
 use crate::lab::params::Key;
 use crate::lab::regress::{Dry, Term};
 use crate::physics::EffectKind;
@@ -56,6 +56,13 @@ impl LabEffect for Coulomb {
             .dry(Dry::Neg),
         );
         Ok(())
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "the direction of motion",
+            shown_by: "motion that goes on while the command reverses (a sine of the command near the loop's bandwidth)",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

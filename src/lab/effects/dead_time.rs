@@ -2,7 +2,7 @@
 //! samples, the delay searched on a grid of sample periods; its signature is a residual that
 //! follows the command's rate.
 
-use super::{command_visible, corr, Cx, Evidence, Grid, LabEffect};
+use super::{command_visible, corr, Cx, Evidence, Grid, LabEffect, Separation};
 use crate::lab::params::Key;
 use crate::lab::signals::Prepared;
 use crate::physics::{EffectKind, Family, PlantSpec};
@@ -51,6 +51,13 @@ impl LabEffect for DeadTime {
             *u = shifted;
         }
         Ok(())
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "the command's past",
+            shown_by: "fast command changes against the response (steps or a chirp)",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

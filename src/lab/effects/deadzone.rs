@@ -2,7 +2,7 @@
 //! inside, the threshold searched on a grid; its signature is a residual that follows the sign
 //! of the command.
 
-use super::{command_visible, corr, geometric, Cx, Evidence, Grid, LabEffect};
+use super::{command_visible, corr, geometric, Cx, Evidence, Grid, LabEffect, Separation};
 use crate::lab::params::Key;
 use crate::lab::signals::{abs_quantile, Prepared};
 use crate::physics::{EffectKind, Family, PlantSpec};
@@ -55,6 +55,13 @@ impl LabEffect for Deadzone {
             };
         }
         Ok(())
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "the command's size",
+            shown_by: "small commands of either sign held until the motion settles, and commands that cross zero while the body still moves",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

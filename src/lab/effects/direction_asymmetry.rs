@@ -2,7 +2,7 @@
 //! gain per direction of the drive force (its negative side a column of its own); its signature
 //! is a residual that follows the command differently in each direction.
 
-use super::{corr, DirectionGain, Evidence, LabEffect};
+use super::{corr, DirectionGain, Evidence, LabEffect, Separation};
 use crate::lab::params::Key;
 use crate::lab::signals::Prepared;
 use crate::physics::{EffectKind, Family, PlantSpec};
@@ -33,6 +33,13 @@ impl LabEffect for DirectionAsymmetry {
             pos: GAIN_POS.value(spec)?,
             neg: GAIN_NEG.resolve(spec)?,
         }))
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "the drive's gain per direction of motion",
+            shown_by: "equal commands in both directions at more than one size",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

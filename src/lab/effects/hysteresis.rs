@@ -2,7 +2,7 @@
 //! the width searched on a grid scaled by the drive force; its signature is a residual that
 //! follows the sign of the drive's change.
 
-use super::{geometric, Cx, DriveForce, Evidence, Grid, LabEffect};
+use super::{geometric, Cx, DriveForce, Evidence, Grid, LabEffect, Separation};
 use crate::lab::params::Key;
 use crate::lab::regress::{fixed_term, Term};
 use crate::lab::signals::{abs_quantile, zero_phase, Prepared};
@@ -82,6 +82,13 @@ impl LabEffect for Hysteresis {
             zero_phase(&diff, d.cutoff_hz, d.dt),
         ));
         Ok(())
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "the direction the drive force last changed",
+            shown_by: "a command that rises and falls without changing sign (a sine about an offset)",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

@@ -263,8 +263,32 @@ pub trait LabEffect: Sync {
         Ok(None)
     }
 
+    /// Effects whose force this one reproduces at some of its parameters' values (a spring's
+    /// pretension is an offset; a Stribeck curve with an endless Stribeck velocity is Coulomb
+    /// friction): fitting as well as one of those, it is that one with parameters to spare,
+    /// not a rival the record cannot tell from it.
+    fn reproduces(&self) -> &'static [EffectKind] {
+        &[]
+    }
+
+    /// What its force follows, and the record that shows it apart from effects that follow
+    /// something else: where a record moves the two together, the diagnosis cannot tell them
+    /// apart and says which record would ([`crate::lab::undecided`]).
+    fn separated_by(&self) -> Separation;
+
     /// The effect's signature in the residual of a model without it.
     fn evidence(&self, ev: &Evidence) -> String;
+}
+
+/// What an effect's force follows and the record that shows it (see
+/// [`LabEffect::separated_by`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Separation {
+    /// The signal its force follows, e.g. "the direction of motion".
+    pub follows: &'static str,
+    /// The excitation that moves that signal apart from the others, e.g. "motion that goes on
+    /// while the command reverses".
+    pub shown_by: &'static str,
 }
 
 /// Every effect's lab side, in the order of their places: the order of their columns in the

@@ -1,7 +1,7 @@
 //! `offset` in the lab: a constant column, `-F_b`; its signature is a residual with a constant
 //! part.
 
-use super::{mean_where, Cx, Evidence, LabEffect};
+use super::{mean_where, Cx, Evidence, LabEffect, Separation};
 use crate::lab::params::Key;
 use crate::lab::regress::Term;
 use crate::physics::EffectKind;
@@ -32,6 +32,13 @@ impl LabEffect for Offset {
             vec![-1.0; cx.d.y.len()],
         ));
         Ok(())
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "nothing that moves (a constant force)",
+            shown_by: "motion in both directions about more than one position",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

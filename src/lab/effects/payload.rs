@@ -1,7 +1,7 @@
 //! `payload` in the lab: the column `clamp(y / y_full, -1, 1)` with the full-scale position
 //! searched on a grid; its signature is a residual that bends with position.
 
-use super::{corr, geometric, Cx, Evidence, Grid, LabEffect};
+use super::{corr, geometric, Cx, Evidence, Grid, LabEffect, Separation};
 use crate::lab::params::Key;
 use crate::lab::regress::Term;
 use crate::lab::signals::abs_quantile;
@@ -49,6 +49,18 @@ impl LabEffect for Payload {
             cx.d.y.iter().map(|y| (y / full).clamp(-1.0, 1.0)).collect(),
         ));
         Ok(())
+    }
+
+    fn reproduces(&self) -> &'static [EffectKind] {
+        // Saturated over the whole travel it is a constant force.
+        &[EffectKind::Offset]
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "position over the travel",
+            shown_by: "the same motion about several positions across the travel",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

@@ -2,7 +2,7 @@
 //! `c_0` held in the drive's reference and columns for `c_1` and `c_2` on the drive force; its
 //! signature is a residual structured by position times drive.
 
-use super::{corr, Cx, DriveForce, Evidence, LabEffect, PositionGain};
+use super::{corr, Cx, DriveForce, Evidence, LabEffect, PositionGain, Separation};
 use crate::lab::params::Key;
 use crate::lab::regress::Term;
 use crate::lab::signals::Prepared;
@@ -74,6 +74,13 @@ impl LabEffect for PositionStiffness {
                 .collect(),
         ));
         Ok(())
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "position times the drive force",
+            shown_by: "the same commands about several positions",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

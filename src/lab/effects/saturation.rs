@@ -2,7 +2,7 @@
 //! each limit searched on a grid of the command's quantiles; its signature is a drive that falls
 //! short at large commands.
 
-use super::{command_visible, mean_where, Cx, Evidence, Grid, LabEffect};
+use super::{command_visible, mean_where, Cx, Evidence, Grid, LabEffect, Separation};
 use crate::lab::data::Dataset;
 use crate::lab::params::Key;
 use crate::lab::signals::{abs_quantile, Prepared};
@@ -86,6 +86,13 @@ impl LabEffect for Saturation {
             *x = x.max(lo).min(hi);
         }
         Ok(())
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "the command beyond a limit",
+            shown_by: "commands both below and beyond the drive's limit",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

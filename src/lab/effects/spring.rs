@@ -1,7 +1,7 @@
 //! `spring` in the lab: columns `c y` and `F_0`; its signature is a residual structured by
 //! position.
 
-use super::{corr, Cx, Evidence, LabEffect};
+use super::{corr, Cx, Evidence, LabEffect, Separation};
 use crate::lab::params::Key;
 use crate::lab::regress::Term;
 use crate::physics::EffectKind;
@@ -34,6 +34,17 @@ impl LabEffect for Spring {
             vec![1.0; cx.d.y.len()],
         ));
         Ok(())
+    }
+
+    fn reproduces(&self) -> &'static [EffectKind] {
+        &[EffectKind::Offset]
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "position",
+            shown_by: "the same motion about several positions",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

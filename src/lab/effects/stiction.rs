@@ -2,7 +2,7 @@
 //! inside the breakaway band, and free breakaway levels are set to the largest holding force
 //! seen at rest. Its signature is a body held at rest beyond the sliding friction.
 
-use super::{Breakaway, Evidence, LabEffect};
+use super::{Breakaway, Evidence, LabEffect, Separation};
 use crate::lab::params::Key;
 use crate::physics::{EffectKind, PlantSpec};
 
@@ -26,6 +26,13 @@ impl LabEffect for Stiction {
             pos: BREAKAWAY_POS.resolve(spec)?,
             neg: BREAKAWAY_NEG.resolve(spec)?,
         }))
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "rest against motion",
+            shown_by: "starts from rest under slowly rising commands",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

@@ -2,7 +2,7 @@
 //! Stribeck velocity searched on a grid (one value for both directions); its signature is a
 //! residual that peaks at low speed with the sign of velocity.
 
-use super::{corr, geometric, mean_where, Cx, Evidence, Grid, LabEffect};
+use super::{corr, geometric, mean_where, Cx, Evidence, Grid, LabEffect, Separation};
 use crate::lab::params::Key;
 use crate::lab::regress::{Dry, Term};
 use crate::lab::signals::abs_quantile;
@@ -83,6 +83,17 @@ impl LabEffect for Stribeck {
             .dry(Dry::Neg),
         );
         Ok(())
+    }
+
+    fn reproduces(&self) -> &'static [EffectKind] {
+        &[EffectKind::Coulomb]
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "low speed",
+            shown_by: "motion at several slow speeds, held long enough to settle",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

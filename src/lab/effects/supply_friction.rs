@@ -2,7 +2,7 @@
 //! seal pressed by its supply), the exponent searched on a grid; its signature is friction in
 //! the residual that follows the supply.
 
-use super::{corr, mean_where, Cx, Evidence, Grid, LabEffect};
+use super::{corr, mean_where, Cx, Evidence, Grid, LabEffect, Separation};
 use crate::lab::params::Key;
 use crate::lab::regress::supply_ratio;
 use crate::lab::signals::Prepared;
@@ -54,6 +54,13 @@ impl LabEffect for SupplyFriction {
                 .map(|r| f.factor(r))
                 .collect(),
         ))
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "the supply while the body slides",
+            shown_by: "the same motion at several supply levels",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

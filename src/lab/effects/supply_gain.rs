@@ -4,7 +4,7 @@
 //! negative command, `κ + Δκ` for the positive one): the negative command's exponent is searched
 //! with the positive one's held, then the positive one's.
 
-use super::{command_visible, corr, Cx, Evidence, Grid, LabEffect, SupplyFactor};
+use super::{command_visible, corr, Cx, Evidence, Grid, LabEffect, SupplyFactor, Separation};
 use crate::lab::params::Key;
 use crate::lab::signals::Prepared;
 use crate::physics::{EffectKind, Family, PlantSpec};
@@ -102,6 +102,13 @@ impl LabEffect for SupplyGain {
                 .powf(if positive { kappa + shift } else { kappa })
         };
         Ok(Some(Box::new(factor)))
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "the supply times the command",
+            shown_by: "the same commands at several supply levels",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

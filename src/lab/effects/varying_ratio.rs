@@ -2,7 +2,7 @@
 //! transmitted torque ([`crate::lab::regress_gear`]), its angle limit searched on a grid; its
 //! signature is a drive gain that grows with the load angle.
 
-use super::{corr, Cx, Evidence, Gear, Grid, LabEffect};
+use super::{corr, Cx, Evidence, Gear, Grid, LabEffect, Separation};
 use crate::lab::params::Key;
 use crate::lab::signals::{abs_quantile, Prepared};
 use crate::physics::{EffectKind, Family, PlantSpec};
@@ -54,6 +54,13 @@ impl LabEffect for VaryingRatio {
             }
         });
         Ok(())
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "the load angle",
+            shown_by: "the same commands across the angle range",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {

@@ -1,7 +1,7 @@
 //! `viscous` in the lab: a column per direction, `d± v`; its signature is a residual that grows
 //! with velocity.
 
-use super::{corr, Cx, Evidence, LabEffect};
+use super::{corr, Cx, Evidence, LabEffect, Separation};
 use crate::lab::params::Key;
 use crate::lab::regress::Term;
 use crate::physics::EffectKind;
@@ -42,6 +42,13 @@ impl LabEffect for Viscous {
 
     fn spans_speed(&self) -> bool {
         true
+    }
+
+    fn separated_by(&self) -> Separation {
+        Separation {
+            follows: "speed",
+            shown_by: "motion at several speeds in both directions",
+        }
     }
 
     fn evidence(&self, ev: &Evidence) -> String {
