@@ -1,7 +1,8 @@
 //! The lab on measurements nobody here made: an excerpt of the pneumatic cylinder at 3 bar
 //! (CC0, tests/data/README.md). The figures and the verdict are those docs/lab.md reports for
 //! it ("Real data": viscous only 0.143 / 0.141, with Coulomb friction 0.132 / 0.129, verdict
-//! deadzone, the verdict at 1 and 7 bar too).
+//! undecided between a dead zone and a saturation, the dead zone in the answer at 1 and 7 bar
+//! too).
 
 use std::path::Path;
 
@@ -64,5 +65,19 @@ fn cylinder_excerpt_gives_the_documented_figures_and_verdict() {
             "friction.toml",
         ],
     );
-    assert_eq!(d["verdict"], "deadzone", "{d:#}");
+    // The dead zone cuts the most, but a saturation of the same command explains nearly as
+    // much: the record does not decide, and the answer is the set.
+    assert_eq!(d["verdict"], "undecided", "{d:#}");
+    let set: Vec<&str> = d["undecided"]["effects"]
+        .as_array()
+        .expect("the undecided set")
+        .iter()
+        .filter_map(|e| e.as_str())
+        .collect();
+    assert_eq!(set, ["deadzone", "saturation"], "{d:#}");
+    let separated_by = d["undecided"]["separated_by"].as_str().unwrap_or_default();
+    assert!(
+        separated_by.contains("commands both below and beyond the drive's limit"),
+        "{separated_by}"
+    );
 }

@@ -714,12 +714,22 @@ impl Balance {
     /// Samples at rest within the span of `index`.
     fn standstill_in(&self, index: &[usize]) -> Vec<usize> {
         match (index.first(), index.last()) {
-            (Some(&a), Some(&b)) => self
-                .standstill
-                .iter()
-                .copied()
-                .filter(|k| (a..=b).contains(k))
-                .collect(),
+            (Some(&a), Some(&b)) => {
+                // The rest before the first motion and after the last belongs to the parts
+                // that start and end the record (a motor that stands under commands that never
+                // start it holds its dead zone or its friction there).
+                let a = if self.index.first() == Some(&a) { 0 } else { a };
+                let b = if self.index.last() == Some(&b) {
+                    usize::MAX
+                } else {
+                    b
+                };
+                self.standstill
+                    .iter()
+                    .copied()
+                    .filter(|k| (a..=b).contains(k))
+                    .collect()
+            }
             _ => Vec::new(),
         }
     }

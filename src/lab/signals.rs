@@ -165,12 +165,16 @@ pub fn prepare(d: &Dataset, cutoff_hz: Option<f64>) -> Prepared {
 /// Largest acceleration at rest, as a fraction of the 95 % quantile of `|a|`.
 const REST_ACCELERATION: f64 = 0.05;
 
-/// Samples at rest (slow and hardly accelerating) between the filter edges, except at the extreme positions of the record
-/// (within 0.5 % of the range), where an end stop may be what holds the body.
+/// Samples at rest (slow and hardly accelerating) between the filter edges, before the first
+/// motion and after the last too, except at the extreme positions of the record (within 0.5 %
+/// of the range), where an end stop may be what holds the body.
 pub fn standstill_samples(d: &Prepared) -> Vec<usize> {
+    if !d.valid.iter().any(|v| *v) {
+        return Vec::new();
+    }
     let (Some(first), Some(last)) = (
-        d.valid.iter().position(|v| *v),
-        d.valid.iter().rposition(|v| *v),
+        d.interior.iter().position(|v| *v),
+        d.interior.iter().rposition(|v| *v),
     ) else {
         return Vec::new();
     };
@@ -283,6 +287,42 @@ mod tests {
                 "a at {k}"
             );
         }
+    }
+
+    #[test]
+    fn rest_before_the_first_motion_and_after_the_last_counts() {
+        // 2 s at rest at 0.05 m, 4 s of a sine about it (0 to 0.1 m), 2 s at rest again.
+        let dt = 1e-3;
+        let w = std::f64::consts::TAU * 0.5;
+        let y = |t: f64| {
+            if (2.0..6.0).contains(&t) {
+                0.05 + 0.05 * (w * (t - 2.0)).sin()
+            } else {
+                0.05
+            }
+        };
+        let time: Vec<f64> = (0..8000).map(|k| k as f64 * dt).collect();
+        let d = Dataset {
+            origin: "rest".into(),
+            output: time.iter().map(|&t| y(t)).collect(),
+            input: vec![0.0; time.len()],
+            time,
+            supply: None,
+            current: None,
+        };
+        let p = prepare(&d, None);
+        let rest = standstill_samples(&p);
+        let before = rest.iter().filter(|&&k| k < 1900).count();
+        let after = rest.iter().filter(|&&k| k > 6100).count();
+        // The filter's edges (its settling at the record's ends) aside, most of both stretches.
+        assert!(
+            before > 1000 && after > 1000,
+            "{before} before, {after} after"
+        );
+        // Motion is not rest.
+        assert!(!rest
+            .iter()
+            .any(|&k| (2300..5700).contains(&k) && p.valid[k]));
     }
 
     #[test]
