@@ -333,3 +333,69 @@ fn a_staircase_leaves_a_dead_zone_and_dry_friction_undecided_and_tracking_decide
         );
     }
 }
+
+/// Several records of one machine: a servo axis whose dry friction follows its supply, recorded
+/// once at 70 % and once at 130 % of the nominal supply, the supply steady in each. Alone, no
+/// record can see the law (its supply does not move); together they can, and the joint verdict
+/// is the answer, with each record's own verdict beside it and what holds in every record.
+#[test]
+fn records_at_two_supply_levels_tell_the_friction_law_together_and_each_its_own_story() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let seed = 1;
+    let mut truth = Truth::draw(Plant::ServoAxis, Some(Hidden::SupplyFriction), seed);
+    truth.supply_varies = false;
+    let mut paths = Vec::new();
+    for (i, level) in [0.7, 1.3].into_iter().enumerate() {
+        truth.supply_level = level;
+        let data = simulate_for(&truth, seed + i as u64, 1.0);
+        let path = dir.path().join(format!("supply_{level}.csv"));
+        std::fs::write(&path, actuatord::lab::data::to_csv(&data)).expect("record written");
+        paths.push(path.display().to_string());
+    }
+    let mut args = vec![
+        "diagnose",
+        "--json",
+        "--family",
+        "linear_axis",
+        "--with",
+        "viscous,coulomb",
+    ];
+    for p in &paths {
+        args.extend(["--data", p.as_str()]);
+    }
+    let out = lab_common::actuator(dir.path(), &args);
+    let j: serde_json::Value = serde_json::from_str(&out).expect("JSON");
+    eprintln!(
+        "joint verdict {}, per record {:#}",
+        j["verdict"], j["per_record"]
+    );
+    assert_eq!(j["verdict"], "supply_friction", "{j:#}");
+    let records = j["per_record"]["records"]
+        .as_array()
+        .expect("one verdict per record");
+    assert_eq!(records.len(), 2);
+    for (r, p) in records.iter().zip(&paths) {
+        assert_eq!(
+            r["origin"].as_str().map(|o| p.ends_with(o)),
+            Some(true),
+            "{r}"
+        );
+        // A steady supply shows no law: the record alone does not name it.
+        assert_ne!(r["verdict"], "supply_friction", "{r}");
+        assert!(
+            !r["significant"]
+                .as_array()
+                .is_some_and(|s| s.iter().any(|e| e == "supply_friction")),
+            "{r}"
+        );
+    }
+    // The joint answer is not a law every record holds: it is listed under neither.
+    let every = j["per_record"]["every"].as_array().expect("every");
+    assert!(!every.iter().any(|e| e == "supply_friction"), "{every:?}");
+
+    // The text says the same, record by record.
+    let text_args: Vec<&str> = args.iter().copied().filter(|a| *a != "--json").collect();
+    let text = lab_common::actuator(dir.path(), &text_args);
+    assert!(text.contains("each record alone:"), "{text}");
+    assert!(text.contains("holds in every record:"), "{text}");
+}

@@ -25,6 +25,7 @@
 //! | [`collapse`] | a fit that collapsed (a parameter at a bound it cannot reach, a vanished residual): refused |
 //! | [`diagnose`] | candidate effects, their refit, penalised ranking and verdict |
 //! | [`undecided`] | candidates the record cannot tell apart (Vuong's test), and the record that would |
+//! | [`story`] | several records of one machine: each diagnosed alone beside the joint answer, the effects in every record and in some |
 //! | [`discover`] | diagnose, add the verdict, refit, repeat: the ladder of effects |
 //! | [`methods`] | the identification methods of `fit`: least squares, recursive, output error |
 //! | [`report`] | HTML page with SVG plots |
@@ -50,6 +51,7 @@ pub mod regress;
 pub mod regress_gear;
 pub mod report;
 pub mod signals;
+pub mod story;
 pub mod structure;
 mod svg;
 pub mod terms;

@@ -175,6 +175,9 @@ pub struct Truth {
     pub cogging: Option<(f64, f64, f64)>,
     /// Vibration: amplitude (N), frequency (Hz), phase (rad).
     pub vibration: Option<(f64, f64, f64)>,
+    /// The supply's level over its nominal for the whole record (1: nominal); recorded when
+    /// it is not 1.
+    pub supply_level: f64,
     /// Open loop: a staircase of commands held this long each (s) instead of the tracking
     /// loop (see [`Staircase`]).
     pub staircase: Option<f64>,
@@ -223,6 +226,7 @@ impl Truth {
             cogging: None,
             vibration: None,
             staircase: None,
+            supply_level: 1.0,
         };
         // A force scale of the plant: what its drive typically delivers.
         let force_scale;
@@ -390,8 +394,11 @@ impl Truth {
             0.0
         };
         match self.plant {
-            Plant::Pneumatic => self.p_nominal + 0.35 * (self.p_atm - self.p_nominal) * swing,
-            _ => self.supply_v * (1.0 + 0.25 * swing),
+            Plant::Pneumatic => {
+                self.p_atm - self.supply_level * (self.p_atm - self.p_nominal)
+                    + 0.35 * (self.p_atm - self.p_nominal) * swing
+            }
+            _ => self.supply_v * (self.supply_level + 0.25 * swing),
         }
     }
 
@@ -502,7 +509,7 @@ pub fn simulate_for(t: &Truth, seed: u64, length: f64) -> Dataset {
         time: Vec::with_capacity(samples),
         input: Vec::with_capacity(samples),
         output: Vec::with_capacity(samples),
-        supply: (t.supply_varies).then(|| Vec::with_capacity(samples)),
+        supply: (t.supply_varies || t.supply_level != 1.0).then(|| Vec::with_capacity(samples)),
         current: (t.plant == Plant::Solenoid && t.record_current)
             .then(|| Vec::with_capacity(samples)),
     };

@@ -205,6 +205,62 @@ fn load_data(a: &DataArgs, models: &mut [&mut Model]) -> anyhow::Result<(Dataset
     Ok((data, prep))
 }
 
+/// Each record of `a` alone, prepared on its own and its command read as `model` reads it; none
+/// for a single record.
+fn load_records(a: &DataArgs, model: &ModelArgs) -> anyhow::Result<Vec<(Dataset, Prepared)>> {
+    if a.data.len() < 2 {
+        return Ok(Vec::new());
+    }
+    a.data
+        .iter()
+        .map(|p| {
+            let single = DataArgs {
+                data: vec![p.clone()],
+                ..a.clone()
+            };
+            load_data(&single, &mut [&mut load_model(model)?])
+        })
+        .collect()
+}
+
+/// The records' own verdicts beside the joint answer, as text.
+fn print_story(story: &actuatord::lab::story::Story) {
+    println!(
+        "
+each record alone:"
+    );
+    for r in &story.records {
+        match &r.refused {
+            Some(why) => println!("  {:<28} not diagnosed: {why}", r.origin),
+            None => println!(
+                "  {:<28} verdict {:<20} significant: {}",
+                r.origin,
+                if r.undecided.is_empty() {
+                    r.verdict.clone()
+                } else {
+                    format!("undecided ({})", r.undecided.join(", "))
+                },
+                if r.significant.is_empty() {
+                    "none".to_string()
+                } else {
+                    r.significant.join(", ")
+                }
+            ),
+        }
+    }
+    println!(
+        "holds in every record: {}",
+        if story.every.is_empty() {
+            "none".to_string()
+        } else {
+            story.every.join(", ")
+        }
+    );
+    for h in &story.some {
+        println!("holds in some: {} ({})", h.effect, h.records.join(", "));
+    }
+}
+
 fn load_model(a: &ModelArgs) -> anyhow::Result<Model> {
     match (&a.model, &a.family) {
         (Some(p), _) => {
@@ -367,8 +423,21 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 bar.report(done, total, name)
             })?;
             bar.finish();
+            let records = load_records(&data, &model)?;
+            let story = (!records.is_empty()).then(|| {
+                actuatord::lab::story::per_record(
+                    &m,
+                    &records,
+                    &opts,
+                    &actuatord::lab::story::joint_effects(&dg),
+                )
+            });
             if json {
-                println!("{}", serde_json::to_string_pretty(&dg.to_json())?);
+                let mut j = dg.to_json();
+                if let Some(story) = &story {
+                    j["per_record"] = story.to_json();
+                }
+                println!("{}", serde_json::to_string_pretty(&j)?);
                 return Ok(());
             }
             println!(
@@ -455,6 +524,10 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 }
                 _ => println!("\nverdict: none — no candidate improves the fit significantly and the residual holds no structure"),
             }
+            if let Some(story) = &story {
+                println!("\nThe verdict above is the records' taken together.");
+                print_story(story);
+            }
             Ok(())
         }
         LabCommand::Discover {
@@ -492,9 +565,18 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 std::fs::write(path, text)
                     .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
             }
+            // Each record alone, diagnosed from the model as given, beside the joint ladder.
+            let records = load_records(&data, &model)?;
+            let story = (!records.is_empty()).then(|| {
+                let ladder: Vec<String> = found.steps.iter().map(|s| s.effect.clone()).collect();
+                actuatord::lab::story::per_record(&m, &records, &opts, &ladder)
+            });
             if json {
                 let mut j = found.to_json();
                 j["out"] = serde_json::json!(out.as_ref().map(|p| p.display().to_string()));
+                if let Some(story) = &story {
+                    j["per_record"] = story.to_json();
+                }
                 println!("{}", serde_json::to_string_pretty(&j)?);
                 return Ok(());
             }
@@ -540,6 +622,13 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 },
                 found.nrmse_final
             );
+            if let Some(story) = &story {
+                println!(
+                    "\nThe ladder above is the records' taken together; each record alone, from {}:",
+                    m.name
+                );
+                print_story(story);
+            }
             if let Some(path) = &out {
                 println!("wrote {}", path.display());
             }
