@@ -293,18 +293,12 @@ fn the_physics_gear_in_torque_mode_with_backlash_is_diagnosed_as_backlash() {
             dg.nrmse_base,
             dg.verdict.as_deref().unwrap_or("none")
         );
-        if std::env::var("LAB_VERBOSE").is_ok() {
-            for c in &dg.candidates {
-                eprintln!(
-                    "    {:<20} drop {:+.3} held-out {:+.3} ΔBIC {:9.1} {}",
-                    c.effect,
-                    c.improvement,
-                    c.holdout_improvement,
-                    c.delta_bic,
-                    if c.significant { "*" } else { "" }
-                );
-            }
-        }
-        assert_eq!(dg.verdict.as_deref(), want, "model {with}");
+        lab_common::print_candidates(&dg);
+        assert_eq!(
+            dg.verdict.as_deref(),
+            want,
+            "model {with}: {:?}",
+            dg.undecided
+        );
     }
 }

@@ -16,6 +16,10 @@ use crate::physics::EffectKind;
 /// Two-sided level below which the data decide between two candidates: `|z|` beyond 1.96.
 pub const DECIDING_Z: f64 = 1.96;
 
+/// A rival whose residual RMS is this much larger than the chosen one's (relative to the
+/// rival's) is decided against, whatever the statistic says.
+pub const MATERIAL: f64 = 0.25;
+
 /// Vuong's statistic of candidate `a` against `b` on the samples both residuals cover:
 /// positive when `a` fits better, normal with unit variance when they fit equally well. The
 /// spread of the log-likelihood ratio's sum comes from the sums over blocks of
@@ -86,11 +90,13 @@ pub struct Rival {
     pub z: Option<f64>,
 }
 
-/// The significant candidates the record cannot tell from `chosen`: the statistic does not
-/// decide (`|z| <` [`DECIDING_Z`]), or their residuals differ by less than `margin` (RMS,
-/// relative): on a long record a difference of a percent is "significant" and says nothing of
-/// the physics (a dead zone's threshold between two grid points against dry friction's exact
-/// least squares). A rival that reproduces the chosen effect ([`super::effects::LabEffect::reproduces`])
+/// The significant candidates the record cannot tell from `chosen`: their residuals differ by
+/// less than `margin` (RMS, relative), or by less than [`MATERIAL`] and the statistic does not
+/// decide (`|z| <` [`DECIDING_Z`]). On a long record a difference of a percent is
+/// "significant" and says nothing of the physics (a dead zone's threshold between two grid
+/// points against dry friction's exact least squares); a residual twice the chosen one's is a
+/// decision even where the statistic is weak, as it is when the evidence comes in bursts (a
+/// gear's play after each of a few dozen reversals: z = 1.4 with half the residual). A rival that reproduces the chosen effect ([`super::effects::LabEffect::reproduces`])
 /// is the chosen one with parameters to spare, not a rival.
 pub fn rivals(
     chosen: &Candidate,
@@ -106,12 +112,20 @@ pub fn rivals(
             let apart =
                 (1.0 - chosen.residual_ratio / c.residual_ratio.max(f64::MIN_POSITIVE)).abs();
             // No statistic (identical fits, or too short a record) decides nothing either.
-            (z.is_none_or(|z| z.abs() < DECIDING_Z) || apart < margin).then(|| Rival {
+            undecided_pair(z, apart, margin).then(|| Rival {
                 effect: c.effect.clone(),
                 z,
             })
         })
         .collect()
+}
+
+/// The rule of [`rivals`] for one pair: the statistic `z` of the chosen against the rival,
+/// `apart` the relative difference of their residuals' RMS (against the rival's).
+fn undecided_pair(z: Option<f64>, apart: f64, margin: f64) -> bool {
+    // No statistic (identical fits, or too short a record) decides nothing either.
+    let weak = z.is_none_or(|z| z.abs() < DECIDING_Z);
+    apart < margin || (weak && apart < MATERIAL)
 }
 
 /// True when `c`'s effect reproduces `chosen`'s.
@@ -270,6 +284,21 @@ mod tests {
         let r = rivals(&chosen, &all, 1.0, 0.05);
         let names: Vec<&str> = r.iter().map(|r| r.effect.as_str()).collect();
         assert_eq!(names, vec!["deadzone"]);
+    }
+
+    #[test]
+    fn the_pair_rule_weighs_the_statistic_and_the_size_of_the_difference() {
+        // A percent apart: undecided even where the statistic is strong (the staircase).
+        assert!(undecided_pair(Some(-4.1), 0.015, 0.05));
+        // A tenth apart and a weak statistic: undecided (the cylinder at 3 bar).
+        assert!(undecided_pair(Some(1.46), 0.10, 0.05));
+        // A tenth apart and a strong statistic: decided.
+        assert!(!undecided_pair(Some(3.0), 0.10, 0.05));
+        // Half the residual, the statistic weak (a gear's play in bursts): decided.
+        assert!(!undecided_pair(Some(1.43), 0.47, 0.05));
+        // No statistic: the size of the difference alone.
+        assert!(undecided_pair(None, 0.10, 0.05));
+        assert!(!undecided_pair(None, 0.30, 0.05));
     }
 
     #[test]

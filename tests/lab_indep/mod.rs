@@ -157,6 +157,9 @@ pub struct Truth {
     pub spring: Option<(f64, f64)>,
     /// Constant force (N) pushing positive.
     pub offset: f64,
+    /// Hardening of the spring, N/m³: `k_3 x³` beside the spring's `k x` (a catalogue spring is
+    /// linear).
+    pub spring_cubic: f64,
     /// Payload: full load (N) and its full-scale position (m).
     pub payload: Option<(f64, f64)>,
     /// Play of the drive force (N, full width).
@@ -175,6 +178,9 @@ pub struct Truth {
     pub cogging: Option<(f64, f64, f64)>,
     /// Vibration: amplitude (N), frequency (Hz), phase (rad).
     pub vibration: Option<(f64, f64, f64)>,
+    /// Open loop: a random command (white noise through a first-order low-pass with this
+    /// corner, Hz, at unit RMS) instead of the tracking loop, as a shaker test drives a body.
+    pub noise_command_hz: Option<f64>,
     /// The supply's level over its nominal for the whole record (1: nominal); recorded when
     /// it is not 1.
     pub supply_level: f64,
@@ -215,6 +221,7 @@ impl Truth {
             stribeck: None,
             spring: None,
             offset: 0.0,
+            spring_cubic: 0.0,
             payload: None,
             hysteresis: None,
             gain_negative: 1.0,
@@ -227,6 +234,7 @@ impl Truth {
             vibration: None,
             staircase: None,
             supply_level: 1.0,
+            noise_command_hz: None,
         };
         // A force scale of the plant: what its drive typically delivers.
         let force_scale;
@@ -420,7 +428,7 @@ fn smooth_load(t: &Truth, x: f64, v: f64) -> f64 {
         t.viscous.1 * v
     };
     if let Some((k, f0)) = t.spring {
-        f += k * x + f0;
+        f += k * x + f0 + t.spring_cubic * x * x * x;
     }
     if let Some((fmax, full)) = t.payload {
         f += fmax * (x / full).clamp(-1.0, 1.0);
@@ -529,6 +537,7 @@ pub fn simulate_for(t: &Truth, seed: u64, length: f64) -> Dataset {
     };
     let mut y = measure(x, &mut g);
     let mut stairs = Staircase::new(t, seed);
+    let mut shaker = 0.0;
     for k in 0..samples {
         let time = k as f64 * t.dt;
         let shape = waves
@@ -546,7 +555,12 @@ pub fn simulate_for(t: &Truth, seed: u64, length: f64) -> Dataset {
             (Plant::Solenoid, Some((k_s, f0))) => (k_s * (r - t.sensor_zero) + f0) / drive_gain,
             _ => 0.0,
         };
-        let u_raw = if t.staircase.is_some() {
+        let u_raw = if let Some(fc) = t.noise_command_hz {
+            // First-order low-pass of unit-variance white noise, scaled back to unit RMS.
+            let alpha = 1.0 - (-std::f64::consts::TAU * fc * t.dt).exp();
+            shaker += alpha * (g.gauss() - shaker);
+            shaker * ((2.0 - alpha) / alpha).sqrt()
+        } else if t.staircase.is_some() {
             stairs.level(time, y - t.sensor_zero)
         } else {
             ff + kp * e + ki * integ + kd * deriv

@@ -45,7 +45,7 @@ pub struct DataArgs {
     #[arg(long, value_parser = Choice::<Command>::parser())]
     pub command: Option<Command>,
     /// Corner of the zero-phase filter for derivatives, Hz (default: a tenth of the sample rate,
-    /// at most 50 Hz).
+    /// at most 50 Hz, or 2.5 times a resonance the position rings at above that).
     #[arg(long)]
     pub cutoff_hz: Option<f64>,
 }
