@@ -60,12 +60,14 @@ pub fn record_cutoff_hz(d: &Dataset) -> f64 {
 
 /// Samples per segment of the position's spectrum ([`resonance_hz`]).
 const SPECTRUM_SEGMENT: usize = 256;
+/// Most segments averaged into the spectrum.
+const SPECTRUM_SEGMENTS: usize = 128;
 
 /// A peak of the position's power spectrum above `above` Hz that stands 10 times over the
 /// spectrum an octave below it and 100 times over the record's noise floor (the median of the
 /// top fifth of the band): a resonance the motion rings at, not the falling tail of the
-/// motion's own band. Welch's estimate: segments of 256 samples, half overlapping, Hann
-/// window, each segment's mean and slope removed.
+/// motion's own band. Welch's estimate: segments of 256 samples, half overlapping (at most 128
+/// of them, spread over a longer record), Hann window, each segment's mean and slope removed.
 pub fn resonance_hz(y: &[f64], dt: f64, above: f64) -> Option<f64> {
     let l = SPECTRUM_SEGMENT;
     if y.len() < 4 * l || dt.is_nan() || dt <= 0.0 {
@@ -89,6 +91,9 @@ pub fn resonance_hz(y: &[f64], dt: f64, above: f64) -> Option<f64> {
         .collect();
     let mut power = vec![0.0; bins];
     let mut segments = 0usize;
+    // Half-overlapping segments, at most SPECTRUM_SEGMENTS of them spread over the record: a
+    // million samples cost what 16 000 do.
+    let hop = (l / 2).max((y.len() - l) / (SPECTRUM_SEGMENTS - 1));
     let mut seg = vec![0.0; l];
     let mut start = 0;
     while start + l <= y.len() {
@@ -117,7 +122,7 @@ pub fn resonance_hz(y: &[f64], dt: f64, above: f64) -> Option<f64> {
             *p += re * re + im * im;
         }
         segments += 1;
-        start += l / 2;
+        start += hop;
     }
     if segments == 0 {
         return None;
