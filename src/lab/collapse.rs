@@ -2,9 +2,12 @@
 //! were to determine ended at a bound its physics cannot reach (a mass, a drive gain, a time
 //! constant fitted to the smallest admissible value), or the residual vanished to rounding, which
 //! measured data cannot give (the balance's scale ran to zero, or its reference moved with the
-//! fit). `fit` refuses to write such a model, `diagnose` does not call its candidate
+//! fit), or the residual fell below what the position sensor's noise alone leaves in the balance.
+//! `fit` refuses to write such a model, `diagnose` does not call its candidate
 //! significant, and `discover` does not take the rung.
 
+use super::regress::IdFit;
+use super::signals::Prepared;
 use crate::physics::PlantSpec;
 
 /// Below this NRMSE a fit of measured data has fitted its own reference, not the data: a
@@ -49,6 +52,32 @@ pub fn collapsed(
         })
 }
 
+/// Share of the acceleration noise ([`Prepared::acceleration_noise`]) below which a fit's
+/// residual, as an acceleration, has fitted the noise: the filtered noise is uncorrelated with
+/// every column, so a model that is right leaves it whole.
+pub const NOISE_SHARE: f64 = 0.5;
+
+/// Why `fit` explains the record better than its sensor allows, or `None`: the RMS of its
+/// moving residual over its inertia coefficient, an acceleration, below [`NOISE_SHARE`] of the
+/// acceleration the position noise puts in the balance.
+pub fn below_noise(fit: &IdFit, d: &Prepared) -> Option<String> {
+    let inertia = fit.values.first().copied()?;
+    if d.acceleration_noise <= 0.0 || inertia.is_nan() || inertia <= 0.0 || fit.residual.is_empty()
+    {
+        return None;
+    }
+    let rms = (fit.residual.iter().map(|r| r * r).sum::<f64>() / fit.residual.len() as f64).sqrt();
+    let per_inertia = rms / inertia;
+    (per_inertia < NOISE_SHARE * d.acceleration_noise).then(|| {
+        format!(
+            "the residual ({per_inertia:.3e} per unit of inertia) is below half the acceleration \
+             the position sensor's noise alone leaves ({:.3e}, from the record's spectrum): the \
+             fit explains noise, a degenerate solution",
+            d.acceleration_noise
+        )
+    })
+}
+
 /// The body's parameters, free in `given`, that `fitted` ran to a lower bound they must stay
 /// above, and that were not there already in `base`.
 pub fn at_bound(given: &PlantSpec, fitted: &PlantSpec, base: Option<&PlantSpec>) -> Vec<String> {
@@ -89,6 +118,70 @@ mod tests {
             "solenoid.toml",
         )
         .expect("plant")
+    }
+
+    /// A linear axis under a force command, its position read with `noise_m` of noise: 20 s
+    /// at 1 kHz under two sines of force.
+    fn record(noise_m: f64) -> (PlantSpec, crate::lab::Dataset) {
+        use crate::physics::{CommandUnit, EffectKind, Family};
+        let mut spec = PlantSpec::new(Family::LinearAxis);
+        spec.set_command(CommandUnit::Newton)
+            .expect("force command");
+        for kind in [EffectKind::Spring, EffectKind::Viscous] {
+            spec.add_effect(kind).expect("linear_axis effect");
+        }
+        spec.seed = 11;
+        spec.set("sensor.position_noise_m", noise_m).expect("noise");
+        let mut plant = spec.build().expect("plant builds");
+        let mut d = crate::lab::Dataset {
+            origin: "axis".into(),
+            time: Vec::new(),
+            input: Vec::new(),
+            output: Vec::new(),
+            supply: None,
+            current: None,
+        };
+        for k in 0..20_000 {
+            let t = k as f64 * 1e-3;
+            let u = 40.0 * (std::f64::consts::TAU * 1.1 * t).sin()
+                + 15.0 * (std::f64::consts::TAU * 4.3 * t).sin();
+            d.time.push(t);
+            d.input.push(u);
+            d.output.push(plant.measure().position);
+            plant.step(u, 1e-3);
+        }
+        (spec, d)
+    }
+
+    #[test]
+    fn a_residual_below_the_sensor_noise_is_refused() {
+        use crate::lab::regress::fit_spec;
+        use crate::lab::signals::prepare;
+        let (spec, noisy) = record(2e-4);
+        let prep = prepare(&noisy, None);
+        assert!(prep.acceleration_noise > 0.0);
+        let (_, fit) = fit_spec(&spec, &noisy, &prep, None).expect("fits");
+        // The right model leaves the noise whole: it stands.
+        assert_eq!(below_noise(&fit, &prep), None);
+        // The same motion without the noise, judged against the noisy sensor's floor: the fit
+        // explains more than that sensor can have measured.
+        let (_, clean) = record(0.0);
+        let mut clean_prep = prepare(&clean, None);
+        clean_prep.acceleration_noise = prep.acceleration_noise;
+        let (_, clean_fit) = fit_spec(&spec, &clean, &clean_prep, None).expect("fits");
+        let rms = |f: &IdFit| {
+            (f.residual.iter().map(|r| r * r).sum::<f64>() / f.residual.len() as f64).sqrt()
+                / f.values[0]
+        };
+        let why = below_noise(&clean_fit, &clean_prep).unwrap_or_else(|| {
+            panic!(
+                "not below the noise: {:.3e} clean, {:.3e} noisy, floor {:.3e}",
+                rms(&clean_fit),
+                rms(&fit),
+                prep.acceleration_noise
+            )
+        });
+        assert!(why.contains("noise"), "{why}");
     }
 
     #[test]

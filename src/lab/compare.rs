@@ -212,19 +212,8 @@ pub fn model_acceleration(
     data: &Dataset,
     prep: &Prepared,
 ) -> anyhow::Result<Vec<f64>> {
-    let bal = balance(&model.spec, data, prep)?;
-    let mass = bal.terms[0].value;
-    if mass.is_nan() || mass <= 0.0 {
-        anyhow::bail!("k_step needs a mass > 0");
-    }
-    let n = prep.y.len();
-    let mut acc = vec![0.0; n];
-    for t in &bal.terms[1..] {
-        for (a, c) in acc.iter_mut().zip(&t.col) {
-            *a -= t.value * c / mass;
-        }
-    }
-    Ok(acc)
+    super::predict::acceleration(&balance(&model.spec, data, prep)?)
+        .ok_or_else(|| anyhow::anyhow!("k_step needs a mass > 0"))
 }
 
 fn k_step(
@@ -235,31 +224,12 @@ fn k_step(
     unit: &str,
 ) -> anyhow::Result<Comparison> {
     let acc = model_acceleration(model, data, prep)?;
-    let n = prep.y.len();
-    let dt = prep.dt;
-    // Stretch of each sample: a prediction never reaches across a gap in the time.
-    let mut stretch = vec![0usize; n];
-    for (i, &start) in prep.segment_starts.iter().enumerate() {
-        let end = prep.segment_starts.get(i + 1).copied().unwrap_or(n).min(n);
-        stretch[start.min(end)..end].fill(i);
-    }
     let mut index = Vec::new();
     let mut predicted = Vec::new();
     let mut measured = Vec::new();
-    for k0 in 0..n.saturating_sub(k) {
-        if !(prep.interior[k0] && prep.interior[k0 + k] && stretch[k0] == stretch[k0 + k]) {
-            continue;
-        }
-        // y(k0+K) = y(k0) + K T v(k0) + ∫₀^{KT} (KT - s) a(t0 + s) ds by the trapezoidal rule,
-        // T² (K/2 a(k0) + Σ_{i=1}^{K-1} (K - i) a(k0+i)): a(k) is the acceleration at t_k (the
-        // filtered derivative), not held over the sample after it; weighting it as held shifts
-        // the prediction by half a sample, which a fitted mass would absorb.
-        let mut y = prep.y[k0] + k as f64 * dt * prep.v[k0] + dt * dt * 0.5 * k as f64 * acc[k0];
-        for i in 1..k {
-            y += dt * dt * (k - i) as f64 * acc[k0 + i];
-        }
+    for k0 in super::predict::starts(prep, k) {
         index.push(k0 + k);
-        predicted.push(y);
+        predicted.push(super::predict::ahead(prep, Some(&acc), k0, k));
         // Against the filtered position: the prediction is built from filtered signals, and
         // what the filter took out of the raw one no model predicts (an output-error fit
         // against it biased the mass by 12 %).
@@ -275,7 +245,7 @@ fn k_step(
         format!(
             "{k}-step-ahead ({:.3} s) from the filtered measured state, against the filtered \
              measured position",
-            k as f64 * dt
+            k as f64 * prep.dt
         ),
     )
 }

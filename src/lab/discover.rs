@@ -5,10 +5,11 @@
 
 use serde::Serialize;
 
-use super::collapse::collapsed;
+use super::collapse::{below_noise, collapsed};
 use super::data::Dataset;
 use super::diagnose::{diagnose, DiagnoseOptions};
 use super::model::Model;
+use super::predict::Prediction;
 use super::regress::fit_spec;
 use super::signals::Prepared;
 use super::structure::Structure;
@@ -30,6 +31,9 @@ pub struct Step {
     pub holdout_improvement: f64,
     /// `BIC_with - BIC_before`.
     pub delta_bic: f64,
+    /// The model after this rung, fitted on the training part, predicting the held-out
+    /// motion ([`super::predict`]).
+    pub prediction: Option<Prediction>,
     /// The effect's signature in the residual before it was added.
     pub evidence: String,
     /// The model after this rung, fitted.
@@ -50,6 +54,9 @@ pub struct Discovery {
     pub nrmse_final: f64,
     /// The final model, fitted.
     pub model: Model,
+    /// The final model, fitted on the training part, predicting the held-out motion: the last
+    /// rung's, or the start's.
+    pub prediction: Option<Prediction>,
     /// True when the loop stopped because nothing more was significant (not at [`MAX_STEPS`]).
     pub converged: bool,
     /// A rung the diagnosis named whose refit collapsed (see [`super::collapse`]): the effect
@@ -76,7 +83,9 @@ pub fn discover(
     let mut steps: Vec<Step> = Vec::new();
     let mut nrmse_base = None;
     let (start, start_fit) = fit_spec(&model.spec, data, d, None)?;
-    if let Some(why) = collapsed(&model.spec, &start, start_fit.nrmse, None) {
+    if let Some(why) =
+        collapsed(&model.spec, &start, start_fit.nrmse, None).or_else(|| below_noise(&start_fit, d))
+    {
         anyhow::bail!(
             "{}: the model as given does not fit this record: {why}",
             data.origin
@@ -98,9 +107,9 @@ pub fn discover(
         // The final figure is the last rung's (or the start's) own refit: the same number the
         // ladder shows.
         let finish = |steps: Vec<Step>, refused, converged| {
-            let (model, nrmse_final) = match steps.last() {
-                Some(s) => (s.model.clone(), s.nrmse),
-                None => (start.clone(), start_fit.nrmse),
+            let (model, nrmse_final, prediction) = match steps.last() {
+                Some(s) => (s.model.clone(), s.nrmse, s.prediction),
+                None => (start.clone(), start_fit.nrmse, dg.base_prediction),
             };
             Ok(Discovery {
                 start: start.clone(),
@@ -108,6 +117,7 @@ pub fn discover(
                 steps,
                 nrmse_final,
                 model,
+                prediction,
                 converged,
                 refused,
                 unexplained: if dg.unexplained {
@@ -136,7 +146,9 @@ pub fn discover(
             }
         }
         let (spec, fit) = fit_spec(&with, data, d, None)?;
-        if let Some(why) = collapsed(&with, &spec, fit.nrmse, Some(&current.spec)) {
+        if let Some(why) =
+            collapsed(&with, &spec, fit.nrmse, Some(&current.spec)).or_else(|| below_noise(&fit, d))
+        {
             return finish(steps, Some((effect, why)), false);
         }
         steps.push(Step {
@@ -145,6 +157,7 @@ pub fn discover(
             nrmse: fit.nrmse,
             holdout_improvement: c.holdout_improvement,
             delta_bic: c.delta_bic,
+            prediction: c.prediction,
             evidence: c.evidence.clone(),
             model: Model {
                 name: format!("{}+{effect}", current.name),
@@ -187,6 +200,7 @@ impl Discovery {
             "steps": self.steps,
             "with": self.model.effects().iter().map(|e| e.name()).collect::<Vec<_>>(),
             "nrmse_final": self.nrmse_final,
+            "prediction": self.prediction,
             "converged": self.converged,
             "unexplained": self.unexplained,
             "undecided": (!self.undecided.is_empty()).then(|| serde_json::json!({

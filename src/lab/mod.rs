@@ -22,6 +22,7 @@
 //! | [`compare`] | prediction modes and the fit / NRMSE / RMSE of a model |
 //! | [`regimes`] | error by regime and residual tests: where a model fails |
 //! | [`structure`] | the residual mapped against every signal; structure no effect of the catalogue makes (periodic in position, an oscillation, a drift) |
+//! | [`predict`] | whether a model predicts motion: its k-step prediction of held-out samples against coasting |
 //! | [`collapse`] | a fit that collapsed (a parameter at a bound it cannot reach, a vanished residual): refused |
 //! | [`diagnose`] | candidate effects, their refit, penalised ranking and verdict |
 //! | [`undecided`] | candidates the record cannot tell apart (Vuong's test), and the record that would |
@@ -46,6 +47,7 @@ pub mod methods;
 pub mod model;
 pub mod motion;
 pub mod params;
+pub mod predict;
 pub mod regimes;
 pub mod regress;
 pub mod regress_gear;

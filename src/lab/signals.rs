@@ -36,6 +36,10 @@ pub struct Prepared {
     /// Number of statistically independent samples, `N_eff = 2 f_c N T_0` (the residual of a
     /// band-limited regression is correlated over about `1/(2 f_c)`), at most `N`.
     pub n_eff_per_sample: f64,
+    /// Standard deviation of the filtered acceleration the position sensor's noise alone
+    /// leaves ([`position_noise`] times [`acceleration_noise_gain`]), 0 where unknown: no
+    /// model explains the balance better than that.
+    pub acceleration_noise: f64,
 }
 
 /// Default filter corner: a tenth of the sample rate, at most 50 Hz.
@@ -63,42 +67,47 @@ const SPECTRUM_SEGMENT: usize = 256;
 /// Most segments averaged into the spectrum.
 const SPECTRUM_SEGMENTS: usize = 128;
 
-/// A peak of the position's power spectrum above `above` Hz that stands 10 times over the
-/// spectrum an octave below it and 100 times over the record's noise floor (the median of the
-/// top fifth of the band): a resonance the motion rings at, not the falling tail of the
-/// motion's own band. Welch's estimate: segments of 256 samples, half overlapping (at most 128
-/// of them, spread over a longer record), Hann window, each segment's mean and slope removed.
-pub fn resonance_hz(y: &[f64], dt: f64, above: f64) -> Option<f64> {
-    let l = SPECTRUM_SEGMENT;
-    if y.len() < 4 * l || dt.is_nan() || dt <= 0.0 {
-        return None;
+/// Welch's estimate of the power spectrum of `y`: segments of 256 samples, half overlapping
+/// (at most 128 of them, spread over a longer record), Hann window, each segment's mean and
+/// slope removed (the motion's drift is not power). Bins below `from_bin` are left at zero.
+struct Spectrum {
+    /// `Σ_segments |X_k|²` per bin `k` of `df`.
+    power: Vec<f64>,
+    /// Bin width, Hz.
+    df: f64,
+}
+
+/// The window and the transform's factors of [`welch`], made once.
+struct Periodogram {
+    window: Vec<f64>,
+    /// cos and sin of 2π j / l: bin k at sample i takes entry (k i) mod l.
+    twiddle: Vec<(f64, f64)>,
+    /// `Σ (i - mean i)²`, for the slope removed from each segment.
+    sxx: f64,
+}
+
+impl Periodogram {
+    fn new() -> Periodogram {
+        let l = SPECTRUM_SEGMENT;
+        let xm = (l as f64 - 1.0) / 2.0;
+        Periodogram {
+            window: (0..l)
+                .map(|i| 0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / l as f64).cos())
+                .collect(),
+            twiddle: (0..l)
+                .map(|j| {
+                    let (sin, cos) = (std::f64::consts::TAU * j as f64 / l as f64).sin_cos();
+                    (cos, sin)
+                })
+                .collect(),
+            sxx: (0..l).map(|i| (i as f64 - xm).powi(2)).sum(),
+        }
     }
-    let bins = l / 2;
-    let df = 1.0 / (l as f64 * dt);
-    let first = ((above / df).ceil() as usize).max(2);
-    if first + 4 >= bins {
-        return None;
-    }
-    let window: Vec<f64> = (0..l)
-        .map(|i| 0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / l as f64).cos())
-        .collect();
-    // cos and sin of 2π j / l: bin k at sample i takes entry (k i) mod l.
-    let twiddle: Vec<(f64, f64)> = (0..l)
-        .map(|j| {
-            let (sin, cos) = (std::f64::consts::TAU * j as f64 / l as f64).sin_cos();
-            (cos, sin)
-        })
-        .collect();
-    let mut power = vec![0.0; bins];
-    let mut segments = 0usize;
-    // Half-overlapping segments, at most SPECTRUM_SEGMENTS of them spread over the record: a
-    // million samples cost what 16 000 do.
-    let hop = (l / 2).max((y.len() - l) / (SPECTRUM_SEGMENTS - 1));
-    let mut seg = vec![0.0; l];
-    let mut start = 0;
-    while start + l <= y.len() {
-        let part = &y[start..start + l];
-        // Least-squares line through the segment, removed: the motion's drift is not power.
+
+    /// `|X_k|²` of one segment of [`SPECTRUM_SEGMENT`] samples, mean and slope removed, added
+    /// to `power` from bin `from_bin` on; `seg` is scratch.
+    fn add(&self, part: &[f64], from_bin: usize, seg: &mut [f64], power: &mut [f64]) {
+        let l = part.len();
         let n = l as f64;
         let xm = (n - 1.0) / 2.0;
         let ym = part.iter().sum::<f64>() / n;
@@ -107,35 +116,126 @@ pub fn resonance_hz(y: &[f64], dt: f64, above: f64) -> Option<f64> {
             .enumerate()
             .map(|(i, v)| (i as f64 - xm) * (v - ym))
             .sum();
-        let sxx: f64 = (0..l).map(|i| (i as f64 - xm).powi(2)).sum();
-        let slope = sxy / sxx;
+        let slope = sxy / self.sxx;
         for (i, v) in part.iter().enumerate() {
-            seg[i] = (v - ym - slope * (i as f64 - xm)) * window[i];
+            seg[i] = (v - ym - slope * (i as f64 - xm)) * self.window[i];
         }
-        for (k, p) in power.iter_mut().enumerate().skip(first / 2) {
+        for (k, p) in power.iter_mut().enumerate().skip(from_bin) {
             let (mut re, mut im) = (0.0, 0.0);
             for (i, v) in seg.iter().enumerate() {
-                let (cos, sin) = twiddle[(k * i) % l];
+                let (cos, sin) = self.twiddle[(k * i) % l];
                 re += v * cos;
                 im -= v * sin;
             }
             *p += re * re + im * im;
         }
-        segments += 1;
-        start += hop;
     }
-    if segments == 0 {
+}
+
+/// The starts of the segments of [`welch`]: half overlapping, at most [`SPECTRUM_SEGMENTS`]
+/// of them spread over the record (a million samples cost what 16 000 do).
+fn segment_starts(len: usize) -> impl Iterator<Item = usize> {
+    let l = SPECTRUM_SEGMENT;
+    let hop = (l / 2).max(len.saturating_sub(l) / (SPECTRUM_SEGMENTS - 1));
+    (0..)
+        .map(move |i| i * hop)
+        .take_while(move |s| s + l <= len)
+}
+
+fn welch(y: &[f64], dt: f64, from_bin: usize) -> Option<Spectrum> {
+    let l = SPECTRUM_SEGMENT;
+    if y.len() < 4 * l || dt.is_nan() || dt <= 0.0 {
         return None;
     }
-    let top = bins * 4 / 5;
-    let mut tail: Vec<f64> = power[top..].to_vec();
-    tail.sort_by(f64::total_cmp);
-    let floor = tail[tail.len() / 2].max(f64::MIN_POSITIVE);
+    let pg = Periodogram::new();
+    let mut power = vec![0.0; l / 2];
+    let mut seg = vec![0.0; l];
+    let mut segments = 0usize;
+    for start in segment_starts(y.len()) {
+        pg.add(&y[start..start + l], from_bin, &mut seg, &mut power);
+        segments += 1;
+    }
+    (segments > 0).then(|| Spectrum {
+        power,
+        df: 1.0 / (l as f64 * dt),
+    })
+}
+
+impl Spectrum {
+    /// First bin of the top fifth of the band, where a sensor's noise shows and the motion of
+    /// a machine sampled for its dynamics does not.
+    fn top(&self) -> usize {
+        self.power.len() * 4 / 5
+    }
+
+    /// The median power of the top fifth of the band.
+    fn floor(&self) -> f64 {
+        let mut tail: Vec<f64> = self.power[self.top()..].to_vec();
+        tail.sort_by(f64::total_cmp);
+        tail[tail.len() / 2].max(f64::MIN_POSITIVE)
+    }
+}
+
+/// A peak of the position's power spectrum above `above` Hz that stands 10 times over the
+/// spectrum an octave below it and 100 times over the record's noise floor (the median of the
+/// top fifth of the band): a resonance the motion rings at, not the falling tail of the
+/// motion's own band.
+pub fn resonance_hz(y: &[f64], dt: f64, above: f64) -> Option<f64> {
+    let bins = SPECTRUM_SEGMENT / 2;
+    let df = 1.0 / (SPECTRUM_SEGMENT as f64 * dt);
+    let first = ((above / df).ceil() as usize).max(2);
+    if !(df.is_finite() && first + 4 < bins) {
+        return None;
+    }
+    let sp = welch(y, dt, first / 2)?;
+    let (power, floor, top) = (&sp.power, sp.floor(), sp.top());
     (first..top)
         .filter(|&k| power[k] >= power[k - 1] && power[k] >= power[k + 1])
         .filter(|&k| power[k] > 100.0 * floor && power[k] > 10.0 * power[k / 2])
         .max_by(|&a, &b| power[a].total_cmp(&power[b]))
-        .map(|k| k as f64 * df)
+        .map(|k| k as f64 * sp.df)
+}
+
+/// The standard deviation of the position sensor's noise: each segment's mean power in the
+/// top fifth of its band taken as white, `σ² = P / Σ w²`, the median over the segments (a jump
+/// between joined records, a fast step, puts broadband power into a few of them). `None` for a
+/// record too short for a spectrum. Where the motion itself reaches that band the estimate is
+/// high, where the sensor is quantised and the body rests it is low.
+pub fn position_noise(y: &[f64], dt: f64) -> Option<f64> {
+    let l = SPECTRUM_SEGMENT;
+    if y.len() < 4 * l || dt.is_nan() || dt <= 0.0 {
+        return None;
+    }
+    let pg = Periodogram::new();
+    let top = l / 2 * 4 / 5;
+    let mut seg = vec![0.0; l];
+    let mut power = vec![0.0; l / 2];
+    let mut levels: Vec<f64> = segment_starts(y.len())
+        .map(|start| {
+            power.fill(0.0);
+            pg.add(&y[start..start + l], top, &mut seg, &mut power);
+            power[top..].iter().sum::<f64>() / (power.len() - top) as f64
+        })
+        .collect();
+    if levels.is_empty() {
+        return None;
+    }
+    let mid = levels.len() / 2;
+    let (_, median, _) = levels.select_nth_unstable_by(mid, f64::total_cmp);
+    let energy: f64 = pg.window.iter().map(|w| w * w).sum();
+    Some((*median / energy).sqrt())
+}
+
+/// The standard deviation of the filtered acceleration ([`prepare`]'s) that white position
+/// noise of unit standard deviation leaves: `sqrt(Σ h_n²)` over the impulse response `h` of the
+/// zero-phase filter and the two central differences.
+pub fn acceleration_noise_gain(cutoff_hz: f64, dt: f64) -> f64 {
+    // Four passes of a first-order lag decay within ~12 time constants 1/(2π f_c) each way.
+    let half = (12.0 / (std::f64::consts::TAU * cutoff_hz * dt)).ceil() as usize + 4;
+    let mut impulse = vec![0.0; 2 * half + 1];
+    impulse[half] = 1.0;
+    let a = derivative(&derivative(&zero_phase(&impulse, cutoff_hz, dt), dt), dt);
+    a[2..a.len() - 2].iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
 /// Two first-order low-passes in series over `x` in place, forward or backward, each
@@ -251,6 +351,8 @@ pub fn prepare(d: &Dataset, cutoff_hz: Option<f64>) -> Prepared {
         segment_starts: segments.iter().map(|r| r.start).collect(),
         standstill: Vec::new(),
         n_eff_per_sample: (2.0 * fc * dt).min(1.0),
+        acceleration_noise: position_noise(&d.output, dt)
+            .map_or(0.0, |s| s * acceleration_noise_gain(fc, dt)),
     };
     // Once per record: every balance of every candidate checks the same samples.
     p.standstill = standstill_samples(&p);
@@ -411,6 +513,48 @@ mod tests {
         assert_eq!(resonance_hz(&ringing, dt, 100.0), None);
         // Too short a record for a spectrum.
         assert_eq!(resonance_hz(&ringing[..500], dt, 35.0), None);
+    }
+
+    #[test]
+    fn the_sensor_noise_is_read_from_the_spectrum_and_its_acceleration_from_the_filter() {
+        let dt = 1e-3;
+        let sigma = 2e-5;
+        let mut rng = crate::physics::rng::SplitMix64::new(7);
+        // A motion of 5 cm at 0.7 and 3 Hz, with white sensor noise, and a jump of 1 cm
+        // halfway (two records joined): the median over segments ignores the jump.
+        let y: Vec<f64> = (0..20_000)
+            .map(|k| {
+                let t = k as f64 * dt;
+                0.05 * (std::f64::consts::TAU * 0.7 * t).sin()
+                    + 0.01 * (std::f64::consts::TAU * 3.0 * t).sin()
+                    + if k > 10_000 { 0.01 } else { 0.0 }
+                    + sigma * rng.normal()
+            })
+            .collect();
+        let s = position_noise(&y, dt).expect("long enough");
+        assert!((s / sigma - 1.0).abs() < 0.1, "{s:.3e} against {sigma:.1e}");
+        // The same motion read by a noiseless sensor has (almost) none.
+        let clean_noise = position_noise(
+            &(0..20_000)
+                .map(|k| 0.05 * (std::f64::consts::TAU * 0.7 * k as f64 * dt).sin())
+                .collect::<Vec<_>>(),
+            dt,
+        )
+        .expect("long enough");
+        assert!(clean_noise < 0.01 * sigma, "{clean_noise:.3e}");
+        assert!(position_noise(&y[..900], dt).is_none());
+        // The gain from the impulse response against the filtered acceleration of pure noise
+        // (prepare's own pipeline).
+        let noise: Vec<f64> = (0..40_000).map(|_| rng.normal()).collect();
+        for fc in [20.0, 50.0, 200.0] {
+            let a = derivative(&derivative(&zero_phase(&noise, fc, dt), dt), dt);
+            let measured = (a[1000..39_000].iter().map(|x| x * x).sum::<f64>() / 38_000.0).sqrt();
+            let gain = acceleration_noise_gain(fc, dt);
+            assert!(
+                (gain / measured - 1.0).abs() < 0.05,
+                "{fc} Hz: {gain} vs {measured}"
+            );
+        }
     }
 
     #[test]

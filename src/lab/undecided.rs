@@ -179,6 +179,8 @@ mod tests {
             p_value: 0.0,
             delta_bic: -10.0,
             holdout_improvement: 0.5,
+            prediction: None,
+            prediction_improvement: None,
             residual_ratio: (residual.iter().map(|x| x * x).sum::<f64>()
                 / residual.len().max(1) as f64)
                 .sqrt(),

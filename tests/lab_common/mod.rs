@@ -76,13 +76,18 @@ pub fn print_candidates(dg: &actuatord::lab::diagnose::Diagnosis) {
     if std::env::var("LAB_VERBOSE").is_err() {
         return;
     }
+    if let Some(p) = &dg.base_prediction {
+        eprintln!("    base: prediction skill {:.3}", p.skill);
+    }
     for c in &dg.candidates {
         eprintln!(
-            "    {:<20} NRMSE {:.4} drop {:+.3} held-out {:+.3} ΔBIC {:9.1} {} | {} | {:?}",
+            "    {:<20} NRMSE {:.4} drop {:+.3} held-out {:+.3} predicted {:+.3} skill {:.3} ΔBIC {:9.1} {} | {} | {:?}",
             c.effect,
             c.nrmse,
             c.improvement,
             c.holdout_improvement,
+            c.prediction_improvement.unwrap_or(f64::NAN),
+            c.prediction.map_or(f64::NAN, |p| p.skill),
             c.delta_bic,
             if c.significant { "*" } else { " " },
             c.evidence,

@@ -585,21 +585,29 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 m.name, d.origin, found.nrmse_base
             );
             println!(
-                "\n  {:<4} {:<20} {:>8} {:>8} {:>9} {:>10}  evidence",
-                "step", "effect added", "before", "after", "held-out", "ΔBIC"
+                "\n  {:<4} {:<20} {:>8} {:>8} {:>9} {:>7} {:>10}  evidence",
+                "step", "effect added", "before", "after", "held-out", "skill", "ΔBIC"
             );
             for (i, s) in found.steps.iter().enumerate() {
                 println!(
-                    "  {:<4} {:<20} {:>8.4} {:>8.4} {:>8.1}% {:>10.1}  {}",
+                    "  {:<4} {:<20} {:>8.4} {:>8.4} {:>8.1}% {:>7} {:>10.1}  {}",
                     i + 1,
                     s.effect,
                     s.nrmse_before,
                     s.nrmse,
                     100.0 * s.holdout_improvement,
+                    s.prediction
+                        .map_or_else(|| "-".to_string(), |p| format!("{:.2}", p.skill)),
                     s.delta_bic,
                     s.evidence
                 );
             }
+            println!(
+                "  (skill: the rung's model, fitted on the first {:.0} % of the record, predicting \
+                 the rest {} samples ahead; 1 exact, 0 no better than coasting)",
+                100.0 * (1.0 - opts.holdout),
+                actuatord::lab::predict::HORIZON
+            );
             if let Some((effect, why)) = &found.refused {
                 println!("\n{effect} was named next, but its fit is refused: {why}");
             }
@@ -622,6 +630,14 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 },
                 found.nrmse_final
             );
+            match &found.prediction {
+                Some(p) if p.predicts() => println!("  {}", p.describe(position_unit)),
+                Some(p) => println!(
+                    "  {}: it does not predict its held-out motion better than coasting",
+                    p.describe(position_unit)
+                ),
+                None => println!("  no prediction of the held-out motion (no positive inertia, or no motion there)"),
+            }
             if let Some(story) = &story {
                 println!(
                     "\nThe ladder above is the records' taken together; each record alone, from {}:",
@@ -659,9 +675,17 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             bar.finish();
             let (crit_mode, crit_before, crit_after) = f.criterion;
             // A collapsed fit is a failure to report: nothing is written.
-            if let Some(why) =
-                actuatord::lab::collapse::collapsed(&m.spec, &f.spec, crit_after, None)
-            {
+            let balance_fit = actuatord::lab::regress::balance(&f.spec, &d, &prep)
+                .map(|b| b.evaluate())
+                .ok();
+            if let Some(why) = actuatord::lab::collapse::collapsed(
+                &m.spec, &f.spec, crit_after, None,
+            )
+            .or_else(|| {
+                balance_fit
+                    .as_ref()
+                    .and_then(|b| actuatord::lab::collapse::below_noise(b, &prep))
+            }) {
                 anyhow::bail!(
                     "{}: {} on {}: {why}; {} not written",
                     m.name,
@@ -695,6 +719,19 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 crit_before,
                 crit_after,
             );
+            // What a written model must do: predict motion it was not fitted on.
+            let position_unit = units(&m).0;
+            let prediction = actuatord::lab::predict::validate(
+                &f.spec,
+                &d,
+                &prep,
+                DiagnoseOptions::default().holdout,
+                actuatord::lab::predict::HORIZON,
+            );
+            match &prediction {
+                Ok(p) => text.push_str(&format!("# {}\n", p.describe(position_unit))),
+                Err(e) => text.push_str(&format!("# no held-out prediction: {e}\n")),
+            }
             for p in &f.parameters {
                 if let Some((lo, hi)) = p.interval {
                     text.push_str(&format!(
@@ -714,6 +751,7 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                         "name": p.name, "value": p.value, "status": p.status,
                         "low": p.interval.map(|i| i.0), "high": p.interval.map(|i| i.1)})).collect::<Vec<_>>(),
                     "track": f.track,
+                    "prediction": prediction.as_ref().ok(),
                     "note": f.note, "out": out.display().to_string()});
                 println!("{}", serde_json::to_string_pretty(&outj)?);
                 return Ok(());
@@ -736,6 +774,15 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 println!("  (drive force, moving samples: the figure of `compare`)");
             }
             println!("  {}", f.note);
+            match &prediction {
+                Ok(p) if p.predicts() => println!("  {}", p.describe(position_unit)),
+                Ok(p) => println!(
+                    "  {}: it does not predict its held-out motion better than coasting (an \
+                     effect missing? `actuator diagnose` names it)",
+                    p.describe(position_unit)
+                ),
+                Err(e) => println!("  no held-out prediction: {e}"),
+            }
             for p in &f.parameters {
                 let (name, v) = (&p.name, p.value);
                 match (p.status, p.interval) {
