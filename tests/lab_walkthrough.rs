@@ -250,4 +250,20 @@ fn the_lab_reads_a_recording_of_the_daemon() {
     );
     // The simulated solenoid has Coulomb friction, which the model was given without.
     assert_eq!(json["verdict"].as_str(), Some("coulomb"), "{out}");
+    // And with it the held-out motion is predicted better than without it.
+    let coulomb = json["candidates"]
+        .as_array()
+        .and_then(|c| c.iter().find(|c| c["effect"] == "coulomb"))
+        .expect("the coulomb candidate");
+    let better = coulomb["prediction_improvement"]
+        .as_f64()
+        .expect("a prediction");
+    let (with, without) = (
+        coulomb["prediction"]["skill"].as_f64().expect("skill"),
+        json["base_prediction"]["skill"]
+            .as_f64()
+            .expect("base skill"),
+    );
+    println!("prediction skill without coulomb {without:.2}, with {with:.2}");
+    assert!(better > 0.2 && with > without, "{out}");
 }

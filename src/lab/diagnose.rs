@@ -660,6 +660,8 @@ impl Diagnosis {
                 "p_value": c.p_value,
                 "delta_bic": c.delta_bic,
                 "holdout_improvement": c.holdout_improvement,
+                "prediction": c.prediction,
+                "prediction_improvement": c.prediction_improvement,
                 "residual_ratio": c.residual_ratio,
                 "parameters_added": c.parameters_added,
                 "held": c.held,
@@ -675,6 +677,7 @@ impl Diagnosis {
             "residual_map": self.residual_map.rows,
             "samples": self.samples,
             "effective_samples": self.effective_samples,
+            "base_prediction": self.base_prediction,
             "not_assessed": self.not_assessed,
         })
     }

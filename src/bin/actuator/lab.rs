@@ -446,22 +446,30 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                 m.name, d.origin, dg.mode, dg.nrmse_base, dg.samples, dg.effective_samples
             );
             println!(
-                "\n  {:<20} {:>8} {:>8} {:>9} {:>10} {:>10}  evidence",
-                "effect", "NRMSE", "drop", "held-out", "ΔBIC", "p"
+                "\n  {:<20} {:>8} {:>8} {:>9} {:>9} {:>10} {:>10}  evidence",
+                "effect", "NRMSE", "drop", "held-out", "predicted", "ΔBIC", "p"
             );
             for c in &dg.candidates {
                 println!(
-                    "{} {:<20} {:>8.4} {:>7.1}% {:>8.1}% {:>10.1} {:>10.2e}  {}",
+                    "{} {:<20} {:>8.4} {:>7.1}% {:>8.1}% {:>9} {:>10.1} {:>10.2e}  {}",
                     if c.significant { "*" } else { " " },
                     c.effect,
                     c.nrmse,
                     100.0 * c.improvement,
                     100.0 * c.holdout_improvement,
+                    c.prediction_improvement
+                        .map_or_else(|| "-".to_string(), |p| format!("{:.1}%", 100.0 * p)),
                     c.delta_bic,
                     c.p_value,
                     c.evidence
                 );
             }
+            println!(
+                "  (held-out: the drop on the last {:.0} % of the record; predicted: how much the \
+                 error of the {}-step prediction of the motion there falls)",
+                100.0 * opts.holdout,
+                actuatord::lab::predict::HORIZON
+            );
             if !dg.not_assessed.is_empty() {
                 println!(
                     "\nnot assessed from this data: {}",
