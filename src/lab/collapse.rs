@@ -123,33 +123,18 @@ mod tests {
     /// A linear axis under a force command, its position read with `noise_m` of noise: 20 s
     /// at 1 kHz under two sines of force.
     fn record(noise_m: f64) -> (PlantSpec, crate::lab::Dataset) {
-        use crate::physics::{CommandUnit, EffectKind, Family};
-        let mut spec = PlantSpec::new(Family::LinearAxis);
-        spec.set_command(CommandUnit::Newton)
-            .expect("force command");
-        for kind in [EffectKind::Spring, EffectKind::Viscous] {
-            spec.add_effect(kind).expect("linear_axis effect");
-        }
-        spec.seed = 11;
-        spec.set("sensor.position_noise_m", noise_m).expect("noise");
-        let mut plant = spec.build().expect("plant builds");
-        let mut d = crate::lab::Dataset {
-            origin: "axis".into(),
-            time: Vec::new(),
-            input: Vec::new(),
-            output: Vec::new(),
-            supply: None,
-            current: None,
-        };
-        for k in 0..20_000 {
-            let t = k as f64 * 1e-3;
-            let u = 40.0 * (std::f64::consts::TAU * 1.1 * t).sin()
-                + 15.0 * (std::f64::consts::TAU * 4.3 * t).sin();
-            d.time.push(t);
-            d.input.push(u);
-            d.output.push(plant.measure().position);
-            plant.step(u, 1e-3);
-        }
+        use crate::physics::EffectKind;
+        let spec = crate::lab::fixtures::force_axis(
+            &[EffectKind::Spring, EffectKind::Viscous],
+            11,
+            noise_m,
+        );
+        let d = crate::lab::fixtures::under_sines(
+            &spec,
+            20_000,
+            &[(40.0, 1.1, 0.0), (15.0, 4.3, 0.0)],
+            None,
+        );
         (spec, d)
     }
 

@@ -399,50 +399,22 @@ pub fn holdout(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lab::fixtures;
     use crate::lab::signals::prepare;
-    use crate::physics::{CommandUnit, EffectKind, Family, Fault, PlantSpec};
+    use crate::physics::{EffectKind, Fault, PlantSpec};
 
     /// A linear axis with spring, viscous damping and Coulomb friction driven by a force in N.
     fn axis() -> PlantSpec {
-        let mut spec = PlantSpec::new(Family::LinearAxis);
-        spec.set_command(CommandUnit::Newton)
-            .expect("force command");
-        for kind in [EffectKind::Spring, EffectKind::Viscous, EffectKind::Coulomb] {
-            spec.add_effect(kind).expect("linear_axis effect");
-        }
-        spec.seed = 3;
-        spec.set("sensor.position_noise_m", 1e-6).expect("noise");
-        spec
+        fixtures::force_axis(
+            &[EffectKind::Spring, EffectKind::Viscous, EffectKind::Coulomb],
+            3,
+            1e-6,
+        )
     }
 
     /// 40 s at 1 kHz of the axis under a sum of sines of force, with `fault` from `fault_at_s`.
     fn measured(spec: &PlantSpec, fault: Option<(f64, Fault)>) -> Dataset {
-        let dt = 1e-3;
-        let n = 40_000;
-        let mut plant = spec.build().expect("plant builds");
-        let tau = std::f64::consts::TAU;
-        let mut d = Dataset {
-            origin: "axis".into(),
-            time: Vec::with_capacity(n),
-            input: Vec::with_capacity(n),
-            output: Vec::with_capacity(n),
-            supply: None,
-            current: None,
-        };
-        for k in 0..n {
-            let t = k as f64 * dt;
-            if let Some((at, f)) = fault {
-                if (t - at).abs() < 0.5 * dt {
-                    plant.inject(f);
-                }
-            }
-            let u = 60.0 * (tau * 0.7 * t).sin() + 25.0 * (tau * 2.3 * t + 1.0).sin();
-            d.time.push(t);
-            d.input.push(u);
-            d.output.push(plant.measure().position);
-            plant.step(u, dt);
-        }
-        d
+        fixtures::under_sines(spec, 40_000, &[(60.0, 0.7, 0.0), (25.0, 2.3, 1.0)], fault)
     }
 
     fn model() -> Model {

@@ -43,6 +43,8 @@ pub mod diagnose;
 pub mod discover;
 pub mod drive;
 pub mod effects;
+#[cfg(test)]
+mod fixtures;
 pub mod methods;
 pub mod model;
 pub mod motion;

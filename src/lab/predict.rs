@@ -173,45 +173,23 @@ pub fn validate(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lab::fixtures;
     use crate::lab::signals::prepare;
-    use crate::physics::{CommandUnit, EffectKind, Family};
+    use crate::physics::EffectKind;
 
     /// A linear axis with a spring, viscous and Coulomb friction under a force command, 1 µm
     /// noise.
     fn axis() -> PlantSpec {
-        let mut spec = PlantSpec::new(Family::LinearAxis);
-        spec.set_command(CommandUnit::Newton)
-            .expect("force command");
-        for kind in [EffectKind::Spring, EffectKind::Viscous, EffectKind::Coulomb] {
-            spec.add_effect(kind).expect("linear_axis effect");
-        }
-        spec.seed = 5;
-        spec.set("sensor.position_noise_m", 1e-6).expect("noise");
-        spec
+        fixtures::force_axis(
+            &[EffectKind::Spring, EffectKind::Viscous, EffectKind::Coulomb],
+            5,
+            1e-6,
+        )
     }
 
     /// 30 s at 1 kHz under two sines of force, by the physics plant.
     fn record(spec: &PlantSpec) -> Dataset {
-        let (dt, n) = (1e-3, 30_000);
-        let mut plant = spec.build().expect("plant builds");
-        let mut d = Dataset {
-            origin: "axis".into(),
-            time: Vec::with_capacity(n),
-            input: Vec::with_capacity(n),
-            output: Vec::with_capacity(n),
-            supply: None,
-            current: None,
-        };
-        for k in 0..n {
-            let t = k as f64 * dt;
-            let u = 40.0 * (std::f64::consts::TAU * 0.9 * t).sin()
-                + 15.0 * (std::f64::consts::TAU * 3.1 * t + 0.4).sin();
-            d.time.push(t);
-            d.input.push(u);
-            d.output.push(plant.measure().position);
-            plant.step(u, dt);
-        }
-        d
+        fixtures::under_sines(spec, 30_000, &[(40.0, 0.9, 0.0), (15.0, 3.1, 0.4)], None)
     }
 
     #[test]
