@@ -34,14 +34,25 @@ fn coil_time_constant_found_and_a_wrong_declared_one_named() {
             .iter()
             .find(|c| c.name == "solenoid.current_time_constant_s")
             .expect("the coil's time constant");
-        // Measured over 16 records (docs/lab.md): within -38 % .. +60 % of the truth; the
-        // coil's lag trades with the damping and the spring's phase on closed-loop records.
-        let ratio = tau.value / truth.coil_tau;
+        // Over 16 records (docs/lab.md) within -38 % .. +60 % of the truth: the coil's lag
+        // trades with the damping and the spring's phase on closed-loop records. On this record
+        // (seed 3: truth 7.20 ms) the fit gives 6.90 ms, -4 %, where the family's default it
+        // starts from, 8.59 ms, is +19 % off: within 10 % of the truth, and at most half the
+        // default's error (measured 0.21 of it), so a fit that stays at its start fails.
+        let err = (tau.value - truth.coil_tau).abs() / truth.coil_tau;
+        let default_err = (tau.declared - truth.coil_tau).abs() / truth.coil_tau;
+        println!(
+            "seed {seed}: coil time constant {:.3} ms, truth {:.3} ms, default {:.3} ms",
+            tau.value * 1e3,
+            truth.coil_tau * 1e3,
+            tau.declared * 1e3
+        );
         assert!(
-            (0.6..1.7).contains(&ratio),
-            "seed {seed}: coil time constant {} against {} (dt {})",
+            err < 0.1 && err <= 0.5 * default_err,
+            "seed {seed}: coil time constant {} against {}, the default {} (dt {})",
             tau.value,
             truth.coil_tau,
+            tau.declared,
             truth.dt
         );
         assert!(tau.low <= tau.value && tau.value <= tau.high);
@@ -80,9 +91,23 @@ fn pneumatic_valve_speeds_per_direction_found() {
             ("pneumatic.velocity_time_constant_s", truth.chamber_tau),
         ] {
             let c = found.iter().find(|c| c.name == name).expect(name);
-            // Measured on 7 records (docs/lab.md): the speeds 8-20 % low, the lag within 20 %.
+            // Over 7 records (docs/lab.md) the speeds come out 8-20 % low, the lag within 20 %.
+            // On seed 1 the fit is off by 10 % (down), 11 % (up) and 15 % (lag), where the
+            // family's defaults it starts from are off by 23 %, 33 % and 79 %: within 20 %, and
+            // at most half the default's error (measured 0.43, 0.34, 0.19 of it), so a fit that
+            // stays at its start fails.
             let err = (c.value - want).abs() / want;
-            assert!(err < 0.25, "seed {seed}: {name} {} against {want}", c.value);
+            let default_err = (c.declared - want).abs() / want;
+            println!(
+                "seed {seed}: {name} {:.3e} against {want:.3e}, the default {:.3e}",
+                c.value, c.declared
+            );
+            assert!(
+                err < 0.2 && err <= 0.5 * default_err,
+                "seed {seed}: {name} {} against {want}, the default {}",
+                c.value,
+                c.declared
+            );
         }
     }
 }
