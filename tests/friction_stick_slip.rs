@@ -2,23 +2,26 @@
 //! independent of `src/physics`: its own Karnopp integrator (a stick band around zero speed in
 //! which the body holds any net force up to the breakaway force), the coil's lag by its exact
 //! exponential step, a return spring with pretension, and constants drawn per seed around a
-//! solenoid of Isermann & Raab's size. The loop is the paper's PIDT1 at 2.5 ms with the
-//! project's `AdaptiveFriction` on top, fed the way the axis feeds it (the controller's memory
-//! takes its own share of the command, not the compensation).
+//! solenoid of Isermann & Raab's size. The loop is the one `config/solenoid.toml` ships, read
+//! through the daemon's configuration loader: the paper's PIDT1 at 2.5 ms with the project's
+//! `AdaptiveFriction` and `ArrivalRelief` on top, fed the way the axis feeds it (the
+//! controller's memory takes its own share of the command, not the compensation).
 //!
 //! The script is the demo's friction phase: small steps 10.0 <-> 10.2 mm once a second at
 //! nominal friction (Coulomb 0.45-0.65 N, about the reference plant's 0.55 N), then the friction
 //! raised threefold. What is checked: the arrival relief (`ArrivalRelief`, on the controller's
-//! stored output) is never worse than the loop without it where breakaway is up to 1.2 times
-//! Coulomb, up to 1.6 times better on the mean over the seeds after every friction effect
-//! tripled and as good within two quanta after the dry friction alone, and where every friction effect
-//! triples (the demo's `friction_x3`) it brings the steps' steady error back to nominal on the
-//! mean over the seeds.
+//! stored output) lowers the steady error after the rise on every seed where breakaway is up to
+//! 1.2 times Coulomb, 2.7 times on the mean over the seeds after every friction effect tripled
+//! and 2.5 times after the dry friction alone, and there it brings the steps' steady error back
+//! to nominal on the mean over the seeds (the demo's `friction_x3`); where breakaway is up to 1.6
+//! times Coulomb it is 1.6 times better on the mean after every friction effect tripled and as
+//! good within two quanta after the dry friction alone.
 
 use actuatord::control::{
-    AdaptiveFriction, AdaptiveFrictionConfig, AdaptiveFrictionSection, ArrivalRelief,
-    ArrivalReliefConfig, DiscreteController,
+    AdaptiveFriction, AdaptiveFrictionConfig, ArrivalRelief, ArrivalReliefConfig,
+    DiscreteController,
 };
+use actuatord::daemon::Config;
 
 /// xorshift64*, its own generator (not the physics').
 #[derive(Debug, Clone)]
@@ -138,6 +141,35 @@ impl StickSlip {
 const PERIOD_S: f64 = 0.0025;
 const QUANTUM_M: f64 = 1e-6;
 
+/// The loop of `config/solenoid.toml` as the daemon reads it: its PIDT1, its adaptive friction
+/// compensation starting from the feed-forward `α F_C / K`, and its arrival relief.
+struct Shipped {
+    controller: DiscreteController,
+    adaptive_friction: AdaptiveFrictionConfig,
+    relief: ArrivalReliefConfig,
+}
+
+fn shipped_solenoid() -> Shipped {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("config/solenoid.toml");
+    let config = Config::load(&path).expect("shipped solenoid configuration");
+    let axis = &config.axis[0];
+    // The plant is stepped at this test's period; the configuration must run at the same one.
+    assert_eq!(config.cycle.period_s, PERIOD_S, "{}", path.display());
+    let c = &axis.controller;
+    Shipped {
+        controller: DiscreteController::new(&c.p, &c.q_per_m, c.output_min, c.output_max)
+            .expect("valid controller"),
+        adaptive_friction: axis
+            .adaptive_friction_config(PERIOD_S)
+            .expect("[axis.adaptive_friction]"),
+        relief: axis
+            .friction_compensation
+            .as_ref()
+            .and_then(|f| f.arrival_relief(PERIOD_S))
+            .expect("arrival relief in [axis.friction_compensation]"),
+    }
+}
+
 /// What rises threefold at the rise.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Rise {
@@ -161,34 +193,12 @@ struct Figures {
 /// The demo's friction phase on the plant of `seed`, with or without the arrival relief.
 fn run(seed: u64, stiction_ratio: (f64, f64), rise: Rise, with_relief: bool) -> Figures {
     let mut plant = StickSlip::drawn(seed, stiction_ratio);
-    // The shipped configuration's values (config/solenoid.toml), not the drawn plant's.
-    let initial = 0.8 * 0.55 / 1.63;
-    let mut law = AdaptiveFriction::new(AdaptiveFrictionConfig {
-        period_s: PERIOD_S,
-        params: AdaptiveFrictionSection {
-            model_time_constant_s: 0.015,
-            adaptation_gain_per_m_s: 10_000.0,
-            compensation_max: 1.5,
-            error_deadband_m: 3e-6,
-            model_deadband_m: 10e-6,
-            settled_band_m: 20e-6,
-            step_max_m: 1e-3,
-        },
-        initial_pos: initial,
-        initial_neg: initial,
-    })
-    .expect("valid adaptive friction");
-    let mut relief = ArrivalRelief::new(ArrivalReliefConfig {
-        period_s: PERIOD_S,
-        lead_s: 0.005,
-        gain_per_m_s: 20_000.0,
-        max: 0.6,
-        deadband_m: 3e-6,
-        speed_max_m_per_s: 0.02,
-    })
-    .expect("valid arrival relief");
-    let mut pid = DiscreteController::pidt1([2231.0, -4204.0, 2000.0], 0.616, 0.0, 24.0)
-        .expect("valid PIDT1");
+    // The shipped configuration's values, not the drawn plant's.
+    let shipped = shipped_solenoid();
+    let mut law =
+        AdaptiveFriction::new(shipped.adaptive_friction).expect("valid adaptive friction");
+    let mut relief = ArrivalRelief::new(shipped.relief).expect("valid arrival relief");
+    let mut pid = shipped.controller;
     let start = 0.010;
     plant.rest_at(start);
     pid.preset(plant.holding_voltage(start));
@@ -261,25 +271,37 @@ fn mean_of(runs: &[(Figures, Figures)], f: fn(&(Figures, Figures)) -> f64) -> f6
     runs.iter().map(f).sum::<f64>() / runs.len() as f64
 }
 
-/// After the rise, never worse than without the relief by more than a quantum, per seed and on
-/// the mean. The nominal steps (the relief learning from nothing) on the mean over the seeds:
-/// with high stiction a step that stalls or slips decides the next one's start, and single
-/// seeds go either way.
-fn assert_not_worse(runs: &[(Figures, Figures)]) {
+/// After the rise, better with the relief than without on every seed, and at least twice as good
+/// on the mean over the seeds (measured 2.7x after every friction effect tripled, 5.7 against
+/// 2.1 µm; 2.5x after the dry friction alone, 14.1 against 5.5 µm; per seed at least 1.5x): a
+/// relief that does nothing is as good, not better. The nominal steps (the relief learning from
+/// nothing) within a quantum on the mean over the seeds: with high stiction a step that stalls or
+/// slips decides the next one's start, and single seeds go either way.
+fn assert_better(runs: &[(Figures, Figures)]) {
     for (seed, (without, with)) in SEEDS.zip(runs) {
         assert!(
-            with.adapted_m <= without.adapted_m + QUANTUM_M,
+            with.adapted_m < without.adapted_m,
             "seed {seed}: {with:?} vs {without:?}"
         );
     }
-    assert!(mean_of(runs, |r| r.1.adapted_m) <= mean_of(runs, |r| r.0.adapted_m));
+    let (with, without) = (
+        mean_of(runs, |r| r.1.adapted_m),
+        mean_of(runs, |r| r.0.adapted_m),
+    );
+    println!(
+        "adapted {:.2} µm with the relief, {:.2} without ({:.2}x)",
+        with * 1e6,
+        without * 1e6,
+        without / with
+    );
+    assert!(2.0 * with <= without, "{with} vs {without}");
     assert!(mean_of(runs, |r| r.1.nominal_m) <= mean_of(runs, |r| r.0.nominal_m) + QUANTUM_M);
 }
 
 #[test]
 fn every_friction_effect_x3_the_relief_brings_the_steady_error_back_to_nominal() {
     let runs = compare((1.05, 1.2), Rise::AllFriction);
-    assert_not_worse(&runs);
+    assert_better(&runs);
     // Without the relief the loop ends well above its nominal error (2.0x on the mean of seeds
     // 1-8 with the reference friction).
     let without_adapted = mean_of(&runs, |r| r.0.adapted_m);
@@ -306,16 +328,17 @@ fn every_friction_effect_x3_the_relief_brings_the_steady_error_back_to_nominal()
 }
 
 #[test]
-fn dry_friction_x3_the_relief_is_not_worse() {
-    assert_not_worse(&compare((1.05, 1.2), Rise::DryFriction));
+fn dry_friction_x3_the_relief_is_better() {
+    assert_better(&compare((1.05, 1.2), Rise::DryFriction));
 }
 
 /// Breakaway up to 1.6 times the Coulomb force (the reference plant's 1.51): the step's end is
 /// decided by where a slip stops, and single seeds go either way. On the mean over the seeds
-/// the relief is better after every friction effect tripled (20.7 against 32.4 µm); with the
-/// dry friction alone tripled it is as good within two sensor quanta (42.4 against 40.5 µm); on
-/// the nominal steps, where it learns from nothing, it costs a little (13.6 against 11.4 µm),
-/// which this test prints and does not judge.
+/// the relief is 1.57 times better after every friction effect tripled (20.7 against 32.4 µm),
+/// asserted as at least 1.4 times, which a relief that does nothing is not; with the dry
+/// friction alone tripled it claims no gain, only as good within two sensor quanta (42.4 against
+/// 40.5 µm); on the nominal steps, where it learns from nothing, it costs a little (13.6 against
+/// 11.4 µm), which this test prints and does not judge.
 #[test]
 fn high_stiction_x3_the_relief_is_better_on_the_mean() {
     for rise in [Rise::AllFriction, Rise::DryFriction] {
@@ -331,10 +354,14 @@ fn high_stiction_x3_the_relief_is_better_on_the_mean() {
             mean_of(&runs, |r| r.1.nominal_m) * 1e6,
             mean_of(&runs, |r| r.0.nominal_m) * 1e6
         );
-        let allowed = match rise {
-            Rise::AllFriction => 0.0,
-            Rise::DryFriction => 2.0 * QUANTUM_M,
-        };
-        assert!(with < without + allowed, "{rise:?}: {with} vs {without}");
+        match rise {
+            Rise::AllFriction => assert!(1.4 * with <= without, "{rise:?}: {with} vs {without}"),
+            Rise::DryFriction => {
+                assert!(
+                    with < without + 2.0 * QUANTUM_M,
+                    "{rise:?}: {with} vs {without}"
+                )
+            }
+        }
     }
 }
