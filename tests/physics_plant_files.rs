@@ -12,11 +12,39 @@ fn file(name: &str) -> PathBuf {
         .join(name)
 }
 
+/// Where a constant command `u` takes the plant of `spec` from rest at `y0` in 0.5 s, from its
+/// constants alone.
+fn expected_after_half_a_second(spec: &PlantSpec, u: f64, y0: f64) -> f64 {
+    let get = |name: &str| spec.get(name).unwrap_or_else(|| panic!("{name}"));
+    match spec.family {
+        // Voltage clipped to the supply; settled (ζ = 0.2, ω0 = 45 rad/s: 1 % of the swing left
+        // after 0.5 s) at the spring's balance, 240 N / 2000 N/m = 0.12 m.
+        Family::LinearAxis => {
+            let force =
+                get("linear_axis.force_gain_n_per_v") * u.min(get("linear_axis.supply_voltage_v"));
+            (force - get("spring.pretension_n")) / get("spring.stiffness_n_per_m")
+        }
+        // Settled (ζ = 0.35, ω0 = 58 rad/s) at the spring's balance,
+        // (1.63 N/V · 12 V - 3 N) / 1650 N/m = 10.0 mm, give or take the stick band F_S / c = 0.5 mm.
+        Family::Solenoid => {
+            let force =
+                get("solenoid.current_gain_a_per_v") * get("solenoid.force_constant_n_per_a") * u;
+            (force - get("spring.pretension_n")) / get("spring.stiffness_n_per_m")
+        }
+        // The valve's speed up at the nominal supply: 0.022 m/s · 0.5 · 0.5 s = 5.5 mm.
+        Family::Pneumatic => y0 + get("pneumatic.gain_up_m_per_s") * u * 0.5,
+        // The motor's no-load speed, 12 V / 0.03 V s/rad / 20 = 20 rad/s at the load, reaches
+        // the end stop at 1.2 rad within a tenth of a second.
+        Family::MotorGear => get("motor_gear.angle_max_rad"),
+    }
+}
+
 #[test]
 fn every_family_has_a_plant_file_that_runs() {
     for fam in Family::ALL {
         let path = file(&format!("{fam}.toml"));
         let mut p = load_plant(&path).unwrap();
+        let spec = load_spec(&path).unwrap();
         assert_eq!(p.family(), fam);
         let u = match fam {
             Family::Pneumatic => 0.5,
@@ -28,8 +56,29 @@ fn every_family_has_a_plant_file_that_runs() {
         assert_eq!(out.len(), 500);
         assert!(out.iter().all(|m| m.position.is_finite()));
         assert!((p.time_s() - 0.5).abs() < 1e-9);
-        let moved = (out[499].position - out[0].position).abs();
-        assert!(moved > 0.0, "{fam} did not move");
+        // A positive command moves every family up, by what its constants say within 10 %
+        // (measured: linear axis 0.1205 m, solenoid 9.90 mm, pneumatic 5.23 mm, motor_gear
+        // 1.200 rad): thousands of sensor quanta, where noise and quantisation are one or two.
+        let (from, to) = (out[0].position, out[499].position);
+        let expected = expected_after_half_a_second(&spec, u, from);
+        println!("{fam}: {from} -> {to}, expected {expected}");
+        assert!(
+            (to - expected).abs() < 0.1 * (expected - from).abs(),
+            "{fam}: {from} -> {to}, expected {expected}"
+        );
+        let unit = if fam == Family::MotorGear { "rad" } else { "m" };
+        let resolution = spec
+            .get(&format!("sensor.position_quantum_{unit}"))
+            .expect("quantum")
+            .max(
+                spec.get(&format!("sensor.position_noise_{unit}"))
+                    .expect("noise"),
+            );
+        assert!(
+            to - from > 1000.0 * resolution,
+            "{fam}: moved {} with a sensor resolution of {resolution}",
+            to - from
+        );
     }
 }
 
