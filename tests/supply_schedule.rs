@@ -247,6 +247,36 @@ fn bench_supply_meets_its_goal_on_every_axis() {
     let verdicts = actuatord::bench::supply::verdicts(&rows);
     let axes: Vec<_> = verdicts.iter().map(|v| v.axis.as_str()).collect();
     assert_eq!(axes, ["linear_axis", "motor_gear", "pneumatic"]);
+    // The goal from the rows' own figures, not the bench's verdict: per axis, the scheduled
+    // RMS error within 1.25x of the scheduled run at the nominal supply at every level (measured
+    // worst 1.00, 1.03, 1.02 for linear_axis, motor_gear, pneumatic), never above fixed gains
+    // (equal at and above the nominal supply, where the schedule keeps the tuned gains), and at
+    // least 1.3x better than fixed where fixed is worst (measured 2.0, 2.3, 2.4).
+    for axis in ["linear_axis", "motor_gear", "pneumatic"] {
+        let mine: Vec<_> = rows.iter().filter(|r| r.axis == axis).collect();
+        let nominal = mine
+            .iter()
+            .find(|r| r.profile == "held" && r.supply == r.nominal)
+            .unwrap_or_else(|| panic!("{axis}: no run at the nominal supply"));
+        for r in &mine {
+            assert!(
+                r.scheduled_rms_m <= 1.25 * nominal.scheduled_rms_m,
+                "{axis}: {:e} m against {:e} m at the nominal supply: {r:?}",
+                r.scheduled_rms_m,
+                nominal.scheduled_rms_m
+            );
+            assert!(r.scheduled_rms_m <= r.fixed_rms_m, "{axis}: {r:?}");
+        }
+        let worst_fixed = mine
+            .iter()
+            .max_by(|a, b| a.fixed_rms_m.total_cmp(&b.fixed_rms_m))
+            .expect("rows");
+        assert!(
+            worst_fixed.fixed_rms_m >= 1.3 * worst_fixed.scheduled_rms_m,
+            "{axis}: where fixed gains are worst: {worst_fixed:?}"
+        );
+    }
+    // The bench's verdict says the same.
     for v in &verdicts {
         assert!(v.met, "{v:?}");
     }
