@@ -42,24 +42,27 @@ fn daemon(config: &Path, duration_s: Option<f64>) -> Proc {
 }
 
 /// Wait until the drive answered the daemon's last SYNC (its shutdown sends one, so that the
-/// disable-voltage RPDO takes effect) with a TPDO1: switch on disabled, power stage off.
+/// disable-voltage RPDO takes effect) with a TPDO1: switch on disabled, power stage off. The
+/// answer to the SYNC before may come after it, when the node was late.
 fn wait_for_disabled_drive(watch: &mut CaptureWatch) {
     watch.wait(
         "the drive's TPDO1 answering the daemon's last SYNC with switch on disabled (0x40)",
         |r: &[CandumpRecord]| {
             let last_sync = r.iter().rposition(|rec| rec.frame.id() == SYNC);
-            let answer = last_sync.and_then(|i| {
+            let states: Vec<u16> = last_sync.map_or(vec![], |i| {
                 r[i..]
                     .iter()
-                    .find(|rec| rec.frame.id() == 0x190)
+                    .filter(|rec| rec.frame.id() == 0x190)
                     .map(|rec| le_u16(rec.frame.data()) & 0x6F)
+                    .collect()
             });
-            match answer {
-                Some(0x40) => Ok(()),
-                other => Err(format!(
-                    "{} frames, last SYNC at {last_sync:?}, statusword after it {other:x?}",
+            if states.contains(&0x40) {
+                Ok(())
+            } else {
+                Err(format!(
+                    "{} frames, last SYNC at {last_sync:?}, statuswords after it {states:x?}",
                     r.len()
-                )),
+                ))
             }
         },
     );
