@@ -1339,9 +1339,13 @@ fn learned_state_survives_a_restart_and_a_bad_state_file_is_set_aside() {
         ("solenoid", 16)
     );
     let pos = axis.friction_compensation_pos.expect("friction kept");
-    // What is kept is what the axis learned: the value its last tuned_parameters frame carried
-    // (1 mV frames). Three seconds of the shipped schedule move it only a few mV from the
-    // unadapted start, too little to judge the learning itself (tests/intel_daemon.rs does).
+    // What is kept is what the axis learned: the value it had when the cycle ended, which its
+    // last tuned_parameters frame (1 mV frames, one per status period) carried up to a status
+    // period before. The run ends a second after the schedule's 0.2 mm step, which the law
+    // may still be adapting to: the kept value may differ from the last frame by as much as
+    // the value moved from frame to frame at the end of the run (the last four periods), and
+    // no more; an axis at rest there leaves 1 mV. Three seconds of the shipped schedule are
+    // too few to judge the learning itself (tests/intel_daemon.rs does).
     let published: Vec<f64> = read_capture(&first_capture)
         .iter()
         .filter(|(_, f)| f.id() == TUNED_PARAMETERS.cob_id(1))
@@ -1353,10 +1357,14 @@ fn learned_state_survives_a_restart_and_a_bad_state_file_is_set_aside() {
         *published.first().expect("tuned_parameters sent"),
         *published.last().expect("tuned_parameters sent"),
     );
-    eprintln!("vcan: U_comp+ kept {pos:.4} V; on the bus {start:.3} V first, {end:.3} V last");
+    let per_period = published[published.len().saturating_sub(5)..]
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .fold(0.0, f64::max);
+    eprintln!("vcan: U_comp+ kept {pos:.4} V; on the bus {start:.3} V first, {end:.3} V last, moving up to {:.1} mV a frame at the end", per_period * 1e3);
     assert!(
-        (pos - end).abs() < 0.001,
-        "kept {pos}, last on the bus {end}"
+        (pos - end).abs() < 0.001 + per_period,
+        "kept {pos}, last on the bus {end}, moving up to {per_period} V a frame at the end"
     );
     assert!(!dir.path().join("learned.toml.tmp").exists());
 
