@@ -2,7 +2,7 @@
 //! and Bao, Mao & Luo (2016).
 //!
 //! Layers, lowest first; a module uses only modules on the lines above its own (never one on its
-//! own line or below). `tests/layering.rs` reads this list and every `crate::` path in `src/`,
+//! own line or below). `tests/it/layering.rs` reads this list and every `crate::` path in `src/`,
 //! and fails on an import that breaks it.
 //! - [`param`]: the parameters' error and checks, shared by every algorithm.
 //! - [`canopen`]: the CANopen-style protocol stack (frame, NMT, SYNC, heartbeat, SDO, object

@@ -26,7 +26,7 @@ pub struct RobustDesign {
 /// family's plant, `config/plants/motor_gear.toml`. The reduced sixth-order design of
 /// [`DesignOptions::default`] holds the daemon's set-points there about 20 mrad short: its
 /// integral corner (30 rad/s) builds the 3 V that break the gear's stiction too slowly; these
-/// weights hold them within 3 mrad (`tests/robust_daemon.rs`).
+/// weights hold them within 3 mrad (`tests/it/robust_daemon.rs`).
 pub fn design_robust(plant_file: &Path) -> Result<RobustDesign, RobustError> {
     design_robust_with(plant_file, DesignOptions::bao_2016())
 }

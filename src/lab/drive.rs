@@ -475,7 +475,7 @@ mod tests {
             c.value
         );
         // Measured 5.46 ms on this record (9 % high): here the point is that the profile is
-        // searched near the truth; the lab's accuracy over many records is tests/lab_drive.rs's.
+        // searched near the truth; the lab's accuracy over many records is tests/it/lab_drive.rs's.
         assert!(
             (c.value / truth - 1.0).abs() < 0.15,
             "coil time constant {} against {truth}",

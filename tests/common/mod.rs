@@ -1,4 +1,5 @@
 //! Helpers shared by the integration tests, one module per kind of rig.
 #![allow(dead_code)]
 
+pub mod paths;
 pub mod vcan;

@@ -65,7 +65,7 @@ impl Default for DesignOptions {
     /// A design reduced to the paper's sixth order, with its reasons. The weights were chosen on
     /// the heavier reading of the paper's Table 1 (`tests/data/motor_gear_heavy_reading.toml`,
     /// shaft mode near 2700 rad/s, γ ≈ 16); on `config/plants/motor_gear.toml` they give γ ≈ 15
-    /// and the sixth-order controller stays within 2 % of γ (`tests/robust_design.rs`), but its
+    /// and the sixth-order controller stays within 2 % of γ (`tests/it/robust_design.rs`), but its
     /// integral action is too slow against that plant's stiction, so `design robust` uses
     /// [`DesignOptions::bao_2016`]:
     /// - `ω_b = 200 rad/s`, `ω_i = 30 rad/s`, `ε = 10⁻³`: the achieved sensitivity bandwidth is

@@ -6,8 +6,8 @@ use std::collections::BTreeSet;
 
 use actuatord::lab::data::to_csv;
 
-mod lab_common;
-mod lab_indep;
+use crate::lab_common;
+use crate::lab_indep;
 use lab_indep::{simulate_for, Plant, Truth};
 
 fn json(dir: &std::path::Path, args: &[&str]) -> serde_json::Value {

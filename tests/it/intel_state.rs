@@ -1,17 +1,13 @@
 //! What an axis learns: visible in the object dictionary, kept through a parameter write and a
 //! configuration reload, and carried by the state file into a new daemon.
 
+use crate::common::paths::root;
 use actuatord::canopen::od::ObjectId;
 use actuatord::canopen::{NmtCommand, ObjectDictionary, SdoClient, Value};
 use actuatord::daemon::config::{Config, SetpointStep};
 use actuatord::daemon::state::{self, StateFile};
 use actuatord::daemon::ControllerNode;
 use actuatord::lockstep::LockStep;
-use std::path::Path;
-
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// The learned table as `config/solenoid.toml` describes it (commented out there).
 const LEARNED_TABLE: &str = "

@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-mod lab_common;
+use crate::lab_common;
 
 const PRESSURES_BAR: [u32; 3] = [1, 3, 7];
 

@@ -1,5 +1,5 @@
 //! A geared axis behind a servo drive in torque mode, on records of the independent simulator
-//! (tests/lab_indep/gear.rs): with `--command torque` a model whose drive constants are right
+//! (tests/it/lab_indep/gear.rs): with `--command torque` a model whose drive constants are right
 //! fits the drive torque, and the diagnosis names the effect hidden from it (Coulomb friction,
 //! backlash) or none for a complete model. Without it the command is read as a voltage.
 //!
@@ -10,8 +10,8 @@ use actuatord::lab::diagnose::{diagnose, DiagnoseOptions};
 use actuatord::lab::signals::prepare;
 use actuatord::lab::{Command, Model};
 
-mod lab_common;
-mod lab_indep;
+use crate::lab_common;
+use crate::lab_indep;
 use lab_indep::gear::{Gear, GearHidden};
 
 /// Seconds of record per case.
@@ -178,7 +178,7 @@ fn a_torque_commanded_gear_is_diagnosed() {
 
 /// Every case on seeds 1-6 (`LAB_SEEDS=...` for others): the figures of docs/lab.md.
 #[test]
-#[ignore = "sweep over seeds; run with --release -- --ignored"]
+#[ignore = "sweep over seeds; run with scripts/lab-sweeps"]
 fn torque_commanded_gear_sweep() {
     let seeds = lab_common::sweep_seeds(1..=6);
     let mut wrong = Vec::new();

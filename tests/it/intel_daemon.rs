@@ -1,6 +1,7 @@
 //! The intelligent-actuator features wired into the daemon: the controller node and a simulated
 //! node in lock-step, every frame through the codec, deterministic for the plant files' seeds.
 
+use crate::common::paths::root;
 use actuatord::bus::Frame;
 use actuatord::daemon::config::{Config, SetpointStep};
 use actuatord::daemon::node::CycleTiming;
@@ -13,7 +14,6 @@ use actuatord::device::{
 use actuatord::simnode::SimNode;
 use actuatord::supervise::fault_table::SHIPPED_FAULT_TABLE;
 use actuatord::supervise::{FaultState, SupervisedFault};
-use std::path::Path;
 
 struct Rig {
     controller: ControllerNode,
@@ -22,10 +22,6 @@ struct Rig {
     k: u64,
     sent: Vec<(u64, Frame)>,
     records: Vec<CycleRecord>,
-}
-
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
 fn config(name: &str, edit: &str) -> Config {

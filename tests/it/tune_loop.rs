@@ -5,16 +5,13 @@
 //! tune` run as a user runs them; the tuned file passes the daemon's validation and runs the
 //! same tour again.
 
+use crate::common::paths::root;
 use std::path::Path;
 
 use actuatord::daemon::Config;
 use actuatord::lockstep::{write_csv, LockStep, LockStepSample};
 
-mod lab_common;
-
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
+use crate::lab_common;
 
 /// The reference configuration with the installation's tour `tour` (steps every `dt_s` from
 /// 1 s, starting at `tour[0]`), written to `dir`: the tour is what both runs track and what

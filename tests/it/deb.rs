@@ -4,12 +4,9 @@
 //! conffile under /etc/actuatord, the DBC and EDS under /usr/share/actuatord, and the maintainer
 //! script that creates the system user the unit runs as.
 
+use crate::common::paths::root;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
 
 fn run(cmd: &mut Command) -> String {
     let out = cmd.output().unwrap_or_else(|e| panic!("{cmd:?}: {e}"));

@@ -8,7 +8,7 @@ use actuatord::lab::signals::prepare;
 use actuatord::lab::{Dataset, Mode, Model};
 use actuatord::physics::{EffectKind, Family, Fault, FaultKind, PlantSpec};
 
-mod lab_common;
+use crate::lab_common;
 use lab_common::{closed_loop, closed_loop_with_fault, sensor, Run, Supply};
 
 /// A plant of the family with the given effects and parameter values, sensor noise included.

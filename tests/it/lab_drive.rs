@@ -7,7 +7,7 @@ use actuatord::lab::drive::identify;
 use actuatord::lab::signals::prepare;
 use actuatord::lab::Model;
 
-mod lab_indep;
+use crate::lab_indep;
 use lab_indep::{simulate_for, Hidden, Plant, Truth};
 
 /// A solenoid record without its current, and the first seeds that draw one.

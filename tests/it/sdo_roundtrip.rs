@@ -1,7 +1,7 @@
 //! SDO client and server talking over an in-process CAN bus: every data type both ways,
 //! expedited and segmented, and writes that take effect only at the cycle boundary.
 
-mod sdo_common;
+use crate::sdo_common;
 
 use actuatord::bus::{Bus, BusEvent, InProcBus, InProcEndpoint};
 use actuatord::canopen::od::{EntrySpec, ObjectDictionary, ObjectId, Value};

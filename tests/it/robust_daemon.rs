@@ -2,7 +2,7 @@
 //! `[axis.controller] state_space_file`, run by the controller node against the simulated
 //! motor_gear node, frame by frame through the codec (lock-step, no clocks).
 
-mod robust_common;
+use crate::robust_common;
 
 use actuatord::daemon::Config;
 use actuatord::lockstep::LockStep;

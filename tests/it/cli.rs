@@ -1,13 +1,10 @@
 //! Whole-program behaviour of the binaries that needs no CAN interface.
 
+use crate::common::paths::repo_file;
 use std::process::Command;
 
 fn actuatord() -> Command {
     Command::new(env!("CARGO_BIN_EXE_actuatord"))
-}
-
-fn root(path: &str) -> String {
-    format!("{}/{path}", env!("CARGO_MANIFEST_DIR"))
 }
 
 #[test]
@@ -15,7 +12,7 @@ fn a_missing_interface_is_a_clear_error_and_a_failure() {
     let out = actuatord()
         .args([
             "--config",
-            &root("config/solenoid.toml"),
+            &repo_file("config/solenoid.toml"),
             "--iface",
             "nosuchcan7",
         ])
@@ -33,7 +30,7 @@ fn a_missing_interface_is_a_clear_error_and_a_failure() {
 fn an_invalid_config_names_file_key_and_rule_and_the_daemon_refuses_to_start() {
     let dir = tempfile::tempdir().expect("tempdir");
     let bad = dir.path().join("bad.toml");
-    let text = std::fs::read_to_string(root("config/solenoid.toml"))
+    let text = std::fs::read_to_string(repo_file("config/solenoid.toml"))
         .expect("config")
         .replace("sensor_deadline_s = 0.0015", "sensor_deadline_s = 0.004");
     std::fs::write(&bad, text).expect("write");
@@ -72,14 +69,14 @@ fn the_dbc_command_prints_the_committed_dbc() {
         .output()
         .expect("actuator runs");
     assert!(out.status.success());
-    let committed = std::fs::read_to_string(root("dbc/actuatord.dbc")).expect("dbc");
+    let committed = std::fs::read_to_string(repo_file("dbc/actuatord.dbc")).expect("dbc");
     assert_eq!(String::from_utf8_lossy(&out.stdout), committed);
 }
 
 #[test]
 fn the_committed_eds_is_the_rendered_dictionary_and_python_canopen_loads_it() {
     let out = Command::new(env!("CARGO_BIN_EXE_actuator"))
-        .args(["eds", "--config", &root("config/solenoid.toml")])
+        .args(["eds", "--config", &repo_file("config/solenoid.toml")])
         .output()
         .expect("actuator runs");
     assert!(
@@ -87,7 +84,7 @@ fn the_committed_eds_is_the_rendered_dictionary_and_python_canopen_loads_it() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let committed = std::fs::read(root("dbc/actuatord.eds")).expect("eds");
+    let committed = std::fs::read(repo_file("dbc/actuatord.eds")).expect("eds");
     assert!(
         out.stdout == committed,
         "dbc/actuatord.eds is stale: run `cargo run --bin actuator -- eds > dbc/actuatord.eds`"
@@ -95,7 +92,7 @@ fn the_committed_eds_is_the_rendered_dictionary_and_python_canopen_loads_it() {
     // An outside tool reads it: the Python canopen package (installed by scripts/setup-test-deps).
     let script = "import sys, canopen\nod = canopen.import_od(sys.argv[1], 1)\nprint(od['loop_statistics']['cycles'].index, od['axis0_setpoint']['setpoint_position'].subindex)";
     let py = Command::new("python3")
-        .args(["-c", script, &root("dbc/actuatord.eds")])
+        .args(["-c", script, &repo_file("dbc/actuatord.eds")])
         .output()
         .expect("python3 runs");
     assert!(
@@ -117,7 +114,7 @@ fn the_committed_configuration_reference_is_the_rendered_one() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let committed = std::fs::read(root("docs/configuration.md")).expect("configuration.md");
+    let committed = std::fs::read(repo_file("docs/configuration.md")).expect("configuration.md");
     assert!(
         out.stdout == committed,
         "docs/configuration.md is stale: run \
@@ -183,7 +180,7 @@ fn decode_names_every_frame_of_a_candump_log_and_what_does_not_decode() {
 fn a_configuration_whose_traffic_does_not_fit_the_bus_is_refused() {
     let dir = tempfile::tempdir().expect("tempdir");
     let slow = dir.path().join("slow.toml");
-    let text = std::fs::read_to_string(root("config/solenoid.toml"))
+    let text = std::fs::read_to_string(repo_file("config/solenoid.toml"))
         .expect("config")
         .replace(
             "iface = \"vcan0\"",

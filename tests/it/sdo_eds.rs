@@ -1,7 +1,7 @@
 //! The generated EDS as an outside tool reads it: the Python `canopen` package (installed by
 //! `scripts/setup-test-deps`; a required test dependency), and a structural check of the INI text.
 
-mod sdo_common;
+use crate::sdo_common;
 
 use actuatord::canopen::eds::access_type;
 use actuatord::canopen::od::{ObjectKind, Value};

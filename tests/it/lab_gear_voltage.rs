@@ -1,5 +1,5 @@
 //! A geared axis driven by its armature voltage, no current recorded, on records of the
-//! independent simulator (tests/lab_indep/gear.rs, `Gear::draw_voltage`): the model declares the
+//! independent simulator (tests/it/lab_indep/gear.rs, `Gear::draw_voltage`): the model declares the
 //! data sheet's constants but the armature's inductance, which the lab identifies from the data
 //! (`compare` reports it with its interval, `fit` writes it); a complete model is diagnosed as
 //! such and a missing Coulomb friction is named.
@@ -11,8 +11,8 @@ use actuatord::lab::diagnose::{diagnose, DiagnoseOptions};
 use actuatord::lab::signals::prepare;
 use actuatord::lab::Model;
 
-mod lab_common;
-mod lab_indep;
+use crate::lab_common;
+use crate::lab_indep;
 use lab_indep::gear::{Gear, GearHidden};
 
 /// Seconds of record per case.
@@ -124,7 +124,7 @@ fn a_voltage_driven_gear_is_diagnosed() {
 /// The armature and the verdicts on seeds 1-8 (`LAB_SEEDS=...` for others): the figures of
 /// docs/lab.md.
 #[test]
-#[ignore = "sweep over seeds; run with --release -- --ignored"]
+#[ignore = "sweep over seeds; run with scripts/lab-sweeps"]
 fn voltage_driven_gear_sweep() {
     let seeds = lab_common::sweep_seeds(1..=8);
     let mut errors = Vec::new();

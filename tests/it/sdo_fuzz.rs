@@ -2,7 +2,7 @@
 //! answers every frame with at most one frame (and only on its own COB-ID), stages only whole,
 //! checked values, and never keeps a transfer past the timeout.
 
-mod sdo_common;
+use crate::sdo_common;
 
 use actuatord::bus::Frame;
 use actuatord::canopen::od::ObjectId;

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-mod lab_common;
+use crate::lab_common;
 
 /// The `actuator ...` lines of the README's code block under `## The model lab`, with the
 /// comment each carries.

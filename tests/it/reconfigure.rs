@@ -3,6 +3,7 @@
 //! builder keeps the configuration in force, so a write after a reload builds on the reloaded
 //! file and a refused file changes nothing.
 
+use crate::common::paths::root;
 use actuatord::bus::Frame;
 use actuatord::canopen::od::ObjectId;
 use actuatord::canopen::{NmtCommand, ObjectDictionary, SdoClient, Value};
@@ -10,14 +11,9 @@ use actuatord::daemon::config::Config;
 use actuatord::daemon::node::CycleTiming;
 use actuatord::daemon::reconfigure::{Builder, Built};
 use actuatord::daemon::ControllerNode;
-use std::path::Path;
 use std::sync::mpsc::Receiver;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
-
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
 
 fn real(od: &ObjectDictionary, axis: Option<usize>, name: &str) -> f64 {
     let h = od.handle_by_name(axis, name).expect(name);

@@ -8,15 +8,12 @@
 //! written for this test (other masses, friction levels split by direction, stick-slip, drive
 //! constants), and the sweep draws every parameter with its own factor.
 
+use crate::common::paths::root;
 use std::path::{Path, PathBuf};
 
 use actuatord::physics::{Family, PlantSpec};
 
-mod lab_common;
-
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
+use crate::lab_common;
 
 /// `actuator ARGS` in `dir`; its standard output and standard error. It must succeed.
 fn actuator(dir: &Path, args: &[&str]) -> (String, String) {

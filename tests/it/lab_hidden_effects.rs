@@ -14,7 +14,7 @@ use actuatord::lab::signals::prepare;
 use actuatord::lab::Model;
 use actuatord::physics::{EffectKind, Family, PlantSpec};
 
-mod lab_common;
+use crate::lab_common;
 use lab_common::{closed_loop, sensor, Lcg, Run};
 
 /// Set an effect's parameters (varied by the generator) in a spec.
@@ -411,7 +411,7 @@ fn hidden_effects_are_named_and_complete_models_get_none() {
 }
 
 #[test]
-#[ignore = "sweep over seeds and longer data; run with --release -- --ignored"]
+#[ignore = "sweep over seeds and longer data; run with scripts/lab-sweeps"]
 fn hidden_effects_sweep() {
     let seeds = lab_common::sweep_seeds(2..=5);
     run_all(&seeds, 30.0);
@@ -420,7 +420,7 @@ fn hidden_effects_sweep() {
 /// Writes the walkthrough's example data (`docs/lab.md`): a solenoid with coulomb friction, in
 /// closed loop, into the directory named by `LAB_EXAMPLE_DIR`.
 #[test]
-#[ignore = "writes example files; run with LAB_EXAMPLE_DIR=dir -- --ignored example_data"]
+#[ignore = "writes example files; run with LAB_EXAMPLE_DIR=dir cargo test --test it -- --ignored example_data"]
 fn example_data() {
     let Ok(dir) = std::env::var("LAB_EXAMPLE_DIR") else {
         return;

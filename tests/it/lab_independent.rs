@@ -14,8 +14,8 @@ use actuatord::lab::signals::prepare;
 use actuatord::lab::structure::Against;
 use actuatord::lab::Model;
 
-mod lab_common;
-mod lab_indep;
+use crate::lab_common;
+use crate::lab_indep;
 use lab_indep::{simulate_for, Hidden, Plant, Truth};
 
 /// The cases the lab claims for a family: each effect named on every seed of the sweep
@@ -195,7 +195,7 @@ fn independent_records_hidden_effects_named_and_complete_models_none() {
 
 /// Every case, claimed and open, on every seed: the figures of docs/lab.md.
 #[test]
-#[ignore = "sweep over seeds; run with --release -- --ignored (LAB_SEEDS=1,2,3 by default)"]
+#[ignore = "sweep over seeds; run with scripts/lab-sweeps (LAB_SEEDS=1,2,3 by default)"]
 fn independent_records_sweep() {
     let seeds = lab_common::sweep_seeds(1..=3);
     let all: Vec<_> = cases().into_iter().chain(open_cases()).collect();

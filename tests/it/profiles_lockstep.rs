@@ -3,6 +3,7 @@
 //! reset, a refused mapping and a mapping taken from an EDS. The same runs on vcan in
 //! `tests/vcan_profiles.rs`.
 
+use crate::common::paths::root;
 use actuatord::bus::{Bus, BusError, BusEvent, Frame};
 use actuatord::daemon::config::Config;
 use actuatord::daemon::node::CycleTiming;
@@ -16,10 +17,6 @@ use actuatord::supervise::FaultKind;
 use std::collections::VecDeque;
 use std::path::Path;
 use std::time::Instant;
-
-fn root(path: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
-}
 
 /// A bus whose only other node is the simulated one: every frame sent reaches it at once.
 struct SimBus<'a> {
@@ -45,7 +42,7 @@ impl Bus for SimBus<'_> {
 }
 
 fn sim(profile: Profile, plant: &str, drive_faults: Vec<DriveFault>, period_s: f64) -> SimNode {
-    let plant = actuatord::physics::load_plant(&root(plant)).expect("plant");
+    let plant = actuatord::physics::load_plant(&root().join(plant)).expect("plant");
     let mut node = SimNode::new(16, plant, period_s, vec![]).with_profile(ProfileNode::new(
         profile,
         16,
@@ -163,7 +160,7 @@ impl Rig {
 }
 
 fn drive_config() -> Config {
-    Config::load(&root("config/cia402_linear_axis.toml")).expect("config")
+    Config::load(&root().join("config/cia402_linear_axis.toml")).expect("config")
 }
 
 #[test]
@@ -293,7 +290,7 @@ fn a_drive_fault_is_the_axis_fault_with_the_drive_code_and_a_reset_brings_it_bac
 
 #[test]
 fn a_cia401_module_closes_the_loop_of_the_solenoid() {
-    let config = Config::load(&root("config/cia401_solenoid.toml")).expect("config");
+    let config = Config::load(&root().join("config/cia401_solenoid.toml")).expect("config");
     let node = sim(
         Profile::Cia401,
         "config/plants/solenoid.toml",
@@ -333,7 +330,7 @@ fn a_cia401_module_closes_the_loop_of_the_solenoid() {
 
 #[test]
 fn a_refused_mapping_is_reported_by_object_and_abort_code() {
-    let text = std::fs::read_to_string(root("config/cia401_solenoid.toml"))
+    let text = std::fs::read_to_string(root().join("config/cia401_solenoid.toml"))
         .expect("config")
         .replace("position_input = 1\n", "position_input = 9\n");
     let config = Config::from_toml(&text, Path::new("bad.toml")).expect("valid as a file");
@@ -370,8 +367,8 @@ fn a_mapping_from_the_eds_is_checked_on_the_node() {
     let dir = tempfile::tempdir().expect("tempdir");
     // The simulated drive's own EDS: its factory mapping has no position actual value.
     let eds = dir.path().join("drive.eds");
-    std::fs::copy(root("dbc/actuator-sim-cia402.eds"), &eds).expect("copy EDS");
-    let text = std::fs::read_to_string(root("config/cia402_linear_axis.toml"))
+    std::fs::copy(root().join("dbc/actuator-sim-cia402.eds"), &eds).expect("copy EDS");
+    let text = std::fs::read_to_string(root().join("config/cia402_linear_axis.toml"))
         .expect("config")
         .replace("[axis.cia402]\n", "eds = \"drive.eds\"\n\n[axis.cia402]\n");
     let config_path = dir.path().join("drive.toml");
@@ -452,7 +449,8 @@ fn the_simulated_nodes_eds_files_are_what_the_sim_prints() {
             .output()
             .expect("actuator sim --print-eds");
         assert!(out.status.success());
-        let file = std::fs::read(root(&format!("dbc/actuator-sim-{profile}.eds"))).expect("eds");
+        let file =
+            std::fs::read(root().join(format!("dbc/actuator-sim-{profile}.eds"))).expect("eds");
         assert!(
             out.stdout == file,
             "dbc/actuator-sim-{profile}.eds is stale: regenerate it with actuator sim --profile {profile} --print-eds"
@@ -462,7 +460,8 @@ fn the_simulated_nodes_eds_files_are_what_the_sim_prints() {
 
 #[test]
 fn profile_keys_are_checked_with_their_file_and_key() {
-    let text = std::fs::read_to_string(root("config/cia402_linear_axis.toml")).expect("config");
+    let text =
+        std::fs::read_to_string(root().join("config/cia402_linear_axis.toml")).expect("config");
     for (from, to, key) in [
         ("profile = \"cia402\"\n", "", "command"),
         (
@@ -498,7 +497,8 @@ fn profile_keys_are_checked_with_their_file_and_key() {
 fn a_cia402_drive_in_csv_follows_the_velocity_the_loop_commands() {
     // The drive axis with a P position loop whose output is the target velocity (CSV, 60FFh):
     // the drive's own velocity loop does the rest. The force-model sections do not apply.
-    let text = std::fs::read_to_string(root("config/cia402_linear_axis.toml")).expect("config");
+    let text =
+        std::fs::read_to_string(root().join("config/cia402_linear_axis.toml")).expect("config");
     let (head, tail) = text.split_at(text.find("[axis.controller]").expect("controller"));
     let limits = tail.find("[axis.limits]").expect("limits");
     let text = format!(

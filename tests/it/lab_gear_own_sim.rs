@@ -9,14 +9,11 @@
 //! friction written on the filtered speed alone, stays far below (55 % before the balance took
 //! the hops sample by sample), so the test can fail.
 
+use crate::common::paths::root;
 use std::path::{Path, PathBuf};
 
-mod lab_common;
+use crate::lab_common;
 use lab_common::actuator;
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// The family's plant with its sensor noise drawn from `seed`, recorded for `seconds` by
 /// `actuator sim` into `dir`.

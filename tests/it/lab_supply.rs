@@ -7,7 +7,7 @@ use std::path::Path;
 use actuatord::lab::data::to_csv;
 use actuatord::physics::{EffectKind, Family, PlantSpec};
 
-mod lab_common;
+use crate::lab_common;
 use lab_common::{closed_loop_with_fault, sensor, Run, Supply};
 
 fn actuator(dir: &Path, args: &[&str]) -> serde_json::Value {

@@ -3,8 +3,8 @@
 //! truth and the error falls to a third; declared as a candidate, `diagnose` names it and
 //! `discover` adds it.
 
-mod lab_common;
-mod lab_indep;
+use crate::lab_common;
+use crate::lab_indep;
 
 use actuatord::lab::data::to_csv;
 use lab_indep::{simulate_for, Hidden, Plant, Truth};

@@ -6,7 +6,7 @@
 
 use actuatord::lab::Model;
 
-mod lab_common;
+use crate::lab_common;
 
 #[test]
 fn the_valve_speeds_of_the_simulated_drive_are_recovered() {
