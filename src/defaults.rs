@@ -42,6 +42,12 @@ pub fn plant(family: Family) -> Builtin {
     }
 }
 
+/// The plant a simulated CiA 402 drive runs when none is named: the linear axis commanded with
+/// the force the drive applies (`config/plants/linear_axis_drive.toml`).
+pub fn drive_plant() -> Builtin {
+    builtin!("config/plants/linear_axis_drive.toml")
+}
+
 /// Where a configuration or plant comes from: a file the user named, or a built-in one.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Source {
@@ -114,6 +120,11 @@ mod tests {
             let p = Source::Builtin(plant(family)).plant().expect("plant");
             assert_eq!(p.family(), family);
         }
+        let drive = drive_plant();
+        let on_disk = std::fs::read_to_string(root.join(drive.path)).expect("shipped file");
+        assert_eq!(on_disk, drive.text, "{}", drive.path);
+        let spec = Source::Builtin(drive).plant_spec().expect("drive plant");
+        assert_eq!(spec.command, crate::physics::CommandUnit::Newton);
     }
 
     #[test]

@@ -43,7 +43,10 @@ enum Command {
         /// --config config/FAMILY.toml), both built in.
         #[arg(long)]
         family: Option<actuatord::physics::Family>,
-        /// Plant file (TOML); default config/plants/solenoid.toml, built in.
+        /// Plant file (TOML); default the family's, built in: config/plants/solenoid.toml, or
+        /// with --profile cia402 a plant the drive commands by force or torque (the linear
+        /// axis of config/plants/linear_axis_drive.toml; --family motor_gear: its gear in
+        /// torque mode).
         #[arg(long)]
         plant: Option<PathBuf>,
         /// Controller configuration for the offline run (--record); default: the family's,
@@ -353,6 +356,40 @@ fn main() -> ExitCode {
     }
 }
 
+/// The plant `actuator sim` runs and its description: the file named, or the family's built-in
+/// one. A CiA 402 drive applies a force or a torque, so without a file it takes the family's
+/// plant commanded so (the linear axis by default); a family without such a command is refused
+/// with the ones that have it.
+fn sim_plant(
+    plant: Option<PathBuf>,
+    family: Option<actuatord::physics::Family>,
+    profile: Option<actuatord::simnode::Profile>,
+) -> anyhow::Result<(Source, actuatord::physics::PlantSpec)> {
+    if plant.is_some() || profile != Some(actuatord::simnode::Profile::Cia402) {
+        let source = Source::or_builtin(plant, defaults::plant(family.unwrap_or(Family::Solenoid)));
+        let spec = source.plant_spec()?;
+        return Ok((source, spec));
+    }
+    match family.unwrap_or(Family::LinearAxis) {
+        Family::LinearAxis => {
+            let source = Source::Builtin(defaults::drive_plant());
+            let spec = source.plant_spec()?;
+            Ok((source, spec))
+        }
+        Family::MotorGear => {
+            let source = Source::Builtin(defaults::plant(Family::MotorGear));
+            let mut spec = source.plant_spec()?;
+            spec.set_command(CommandUnit::NewtonMetre)?;
+            Ok((source, spec))
+        }
+        other => anyhow::bail!(
+            "--profile cia402 is a servo drive, which applies a force or a torque: --family \
+             linear_axis (the default) or motor_gear; the {other} plant has no such command \
+             (it fits --profile cia401)"
+        ),
+    }
+}
+
 fn run(args: Args) -> anyhow::Result<()> {
     match args.command {
         Command::Sim {
@@ -393,9 +430,7 @@ fn run(args: Args) -> anyhow::Result<()> {
                 drive_faults.is_empty() || profile == Some(actuatord::simnode::Profile::Cia402),
                 "--drive-fault needs --profile cia402"
             );
-            let family = family.unwrap_or(actuatord::physics::Family::Solenoid);
-            let plant = Source::or_builtin(plant, defaults::plant(family));
-            let spec = plant.plant_spec()?;
+            let (plant, spec) = sim_plant(plant, family, profile)?;
             anyhow::ensure!(
                 profile.is_some() || matches!(spec.command, CommandUnit::Volt | CommandUnit::Duty),
                 "{}: command {:?} cannot be carried by the command frame (voltage or duty); set command = \"voltage\"",
@@ -416,7 +451,7 @@ fn run(args: Args) -> anyhow::Result<()> {
                 anyhow::ensure!(record.is_none(), "--record runs offline without a profile");
             }
             if let Some(csv) = record {
-                let config = Source::or_builtin(config, defaults::config(family));
+                let config = Source::or_builtin(config, defaults::config(spec.family));
                 return sim_offline(&config, model, faults, &csv, seconds);
             }
             anyhow::ensure!(

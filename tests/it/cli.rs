@@ -228,3 +228,47 @@ fn a_closed_pipe_on_stdout_ends_the_command_without_a_panic() {
         out.status
     );
 }
+
+/// A newcomer's `actuator sim --profile cia402`: without a plant file the drive gets a plant it
+/// can command (the linear axis by force, the gear by torque) and goes on to open its bus, which
+/// here does not exist; a family without a force or torque command is refused naming the ones
+/// that have it.
+#[test]
+fn a_simulated_drive_without_a_plant_file_picks_one_it_can_command() {
+    let sim = |extra: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_actuator"))
+            .args([
+                "sim",
+                "--profile",
+                "cia402",
+                "--iface",
+                "actuatord-no-such-bus",
+            ])
+            .args(extra)
+            .current_dir(std::env::temp_dir())
+            .output()
+            .expect("actuator runs");
+        assert!(!out.status.success());
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    for family in [
+        &[][..],
+        &["--family", "linear_axis"],
+        &["--family", "motor_gear"],
+    ] {
+        let err = sim(family);
+        assert!(
+            err.contains("CAN interface actuatord-no-such-bus does not exist"),
+            "{family:?}: {err}"
+        );
+    }
+    for family in ["solenoid", "pneumatic"] {
+        let err = sim(&["--family", family]);
+        assert!(
+            err.contains("--profile cia402 is a servo drive")
+                && err.contains("linear_axis (the default) or motor_gear")
+                && err.contains(&format!("the {family} plant")),
+            "{family}: {err}"
+        );
+    }
+}
