@@ -28,6 +28,8 @@ pub struct LockStep {
     heartbeat_every: u64,
     k: u64,
     records: Vec<CycleRecord>,
+    /// The frames the controller sent in the last cycle.
+    sent: Vec<Frame>,
 }
 
 impl LockStep {
@@ -46,6 +48,7 @@ impl LockStep {
             heartbeat_every: ((0.1 / period_s).round() as u64).max(1),
             k: 0,
             records: Vec::with_capacity(4),
+            sent: Vec::with_capacity(16),
         };
         rig.sim.boot(&mut |_| {});
         let mut to_sim = Vec::new();
@@ -74,16 +77,22 @@ impl LockStep {
         for a in self.deliver(&[sync]) {
             self.controller.handle(&a, t, &mut |_| {});
         }
-        let mut out = Vec::new();
         self.records.clear();
-        let records = &mut self.records;
-        self.controller
-            .finish_cycle(t, CycleTiming::default(), &mut |f| out.push(*f), &mut |r| {
+        self.sent.clear();
+        let (records, sent) = (&mut self.records, &mut self.sent);
+        self.controller.finish_cycle(
+            t,
+            CycleTiming::default(),
+            &mut |f| sent.push(*f),
+            &mut |r| {
                 if let Record::Cycle(c) = r {
                     records.push(c);
                 }
-            });
-        self.deliver(&out);
+            },
+        );
+        let sent = std::mem::take(&mut self.sent);
+        self.deliver(&sent);
+        self.sent = sent;
         self.k += 1;
         self.records.first().map(|record| LockStepSample {
             record: *record,
@@ -99,6 +108,37 @@ impl LockStep {
                 each(&s);
             }
         }
+    }
+
+    /// A frame another node sent (a commander, a tool) reaches the controller at the time of
+    /// the cycle about to run.
+    pub fn inject(&mut self, frame: &Frame) {
+        let t = self.time_s();
+        self.controller.handle(frame, t, &mut |_| {});
+    }
+
+    /// The frames the controller sent in the last cycle, in order.
+    pub fn sent(&self) -> &[Frame] {
+        &self.sent
+    }
+
+    /// Every axis' record of the last cycle.
+    pub fn records(&self) -> &[CycleRecord] {
+        &self.records
+    }
+
+    /// Cycles run so far.
+    pub fn cycles(&self) -> u64 {
+        self.k
+    }
+
+    /// The time of the cycle about to run: cycles run times the period.
+    pub fn time_s(&self) -> f64 {
+        self.k as f64 * self.period_s
+    }
+
+    pub fn period_s(&self) -> f64 {
+        self.period_s
     }
 
     pub fn controller(&self) -> &ControllerNode {

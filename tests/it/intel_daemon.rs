@@ -1,28 +1,15 @@
 //! The intelligent-actuator features wired into the daemon: the controller node and a simulated
 //! node in lock-step, every frame through the codec, deterministic for the plant files' seeds.
 
+use crate::common::lockstep::Rig;
 use crate::common::paths::root;
-use actuatord::bus::Frame;
 use actuatord::daemon::config::{Config, SetpointStep};
-use actuatord::daemon::node::CycleTiming;
-use actuatord::daemon::record::{CycleRecord, Record};
-use actuatord::daemon::ControllerNode;
 use actuatord::device::{
     messages, Emcy, FaultDiagnosisPdo, FaultResetPdo, FaultStatePdo, TunedGainsPdo,
     TunedParametersPdo,
 };
-use actuatord::simnode::SimNode;
 use actuatord::supervise::fault_table::SHIPPED_FAULT_TABLE;
 use actuatord::supervise::{FaultState, SupervisedFault};
-
-struct Rig {
-    controller: ControllerNode,
-    sim: SimNode,
-    period_s: f64,
-    k: u64,
-    sent: Vec<(u64, Frame)>,
-    records: Vec<CycleRecord>,
-}
 
 fn config(name: &str, edit: &str) -> Config {
     let path = root().join("config").join(name);
@@ -34,84 +21,14 @@ fn step(at_s: f64, position_m: f64) -> SetpointStep {
     SetpointStep { at_s, position_m }
 }
 
+/// The shipped plant file `plant` (config/plants) in lock step with the controller.
+fn rig_on(config: &Config, plant: &str, faults: &[&str]) -> Rig {
+    let plant = actuatord::physics::load_plant(&root().join("config/plants").join(plant))
+        .expect("shipped plant");
+    Rig::new(config, plant, faults)
+}
+
 impl Rig {
-    fn new(config: &Config, plant: &str, faults: &[&str]) -> Self {
-        let plant = actuatord::physics::load_plant(&root().join("config/plants").join(plant))
-            .expect("shipped plant");
-        let faults = faults.iter().map(|f| f.parse().expect("fault")).collect();
-        let period_s = config.cycle.period_s;
-        let mut rig = Rig {
-            controller: ControllerNode::new(config).expect("controller"),
-            sim: SimNode::new(16, plant, period_s, faults),
-            period_s,
-            k: 0,
-            sent: vec![],
-            records: vec![],
-        };
-        let mut to_sim = vec![];
-        rig.sim.boot(&mut |_| {});
-        rig.controller.boot(&mut |f| to_sim.push(*f), &mut |_| {});
-        rig.deliver(&to_sim);
-        rig
-    }
-
-    fn deliver(&mut self, frames: &[Frame]) -> Vec<Frame> {
-        let mut answers = vec![];
-        for f in frames {
-            self.sim.handle(f, &mut |a| answers.push(*a), &mut |_| {});
-        }
-        answers
-    }
-
-    fn cycle(&mut self) {
-        let t = self.k as f64 * self.period_s;
-        if self.k % ((0.1 / self.period_s).round() as u64).max(1) == 0 {
-            let hb = self.sim.heartbeat();
-            self.controller.handle(&hb, t, &mut |_| {});
-        }
-        self.controller.begin_cycle();
-        let sync = self.controller.sync_frame();
-        for a in self.deliver(&[sync]) {
-            self.controller.handle(&a, t, &mut |_| {});
-        }
-        let mut out = vec![];
-        let records = &mut self.records;
-        self.controller
-            .finish_cycle(t, CycleTiming::default(), &mut |f| out.push(*f), &mut |r| {
-                if let Record::Cycle(c) = r {
-                    records.push(c)
-                }
-            });
-        self.deliver(&out);
-        self.sent.extend(out.into_iter().map(|f| (self.k, f)));
-        self.k += 1;
-    }
-
-    fn run_until(&mut self, t_s: f64) {
-        while (self.k as f64) * self.period_s < t_s - 1e-9 {
-            self.cycle();
-        }
-    }
-
-    fn inject(&mut self, frame: Frame) {
-        let t = self.k as f64 * self.period_s;
-        self.controller.handle(&frame, t, &mut |_| {});
-    }
-
-    fn frames<T>(&self, id: u32, decode: fn(&Frame) -> T) -> Vec<(u64, T)> {
-        self.sent
-            .iter()
-            .filter(|(_, f)| f.id() == id)
-            .map(|(k, f)| (*k, decode(f)))
-            .collect()
-    }
-
-    fn emcys(&self) -> Vec<(u64, Emcy)> {
-        self.frames(messages::EMCY.cob_id(1), |f| {
-            Emcy::decode(f).expect("emcy decodes")
-        })
-    }
-
     fn last_fault_state(&self) -> FaultStatePdo {
         self.frames(messages::FAULT_STATE.cob_id(1), |f| {
             FaultStatePdo::decode(f).expect("decodes")
@@ -150,7 +67,7 @@ fn demo_setpoints(c: &mut Config) {
 fn a_friction_rise_is_caught_by_the_observer_and_announced_on_the_bus() {
     let mut c = config("solenoid.toml", "");
     demo_setpoints(&mut c);
-    let mut rig = Rig::new(&c, "solenoid.toml", &["friction_x3@5s"]);
+    let mut rig = rig_on(&c, "solenoid.toml", &["friction_x3@5s"]);
     rig.run_until(5.0);
     assert!(
         rig.last_diagnosis().observer_learned,
@@ -163,7 +80,7 @@ fn a_friction_rise_is_caught_by_the_observer_and_announced_on_the_bus() {
         .into_iter()
         .find(|(_, e)| e.error_code == 0xFF15)
         .expect("an EMCY for the observer's friction finding");
-    assert!(k as f64 * rig.period_s > 5.0, "only after the fault");
+    assert!(k as f64 * rig.period_s() > 5.0, "only after the fault");
     assert_eq!(e.diagnosed_fault, Some(SupervisedFault::ObserverFriction));
     assert_eq!(e.state, FaultState::MaintenanceRequested);
     assert!(e.supervised.contains(SupervisedFault::ObserverFriction));
@@ -180,7 +97,7 @@ fn a_friction_rise_is_caught_by_the_observer_and_announced_on_the_bus() {
 fn without_a_fault_the_observer_stays_quiet() {
     let mut c = config("solenoid.toml", "");
     demo_setpoints(&mut c);
-    let mut rig = Rig::new(&c, "solenoid.toml", &[]);
+    let mut rig = rig_on(&c, "solenoid.toml", &[]);
     rig.run_until(9.5);
     assert!(rig.emcys().is_empty(), "{:?}", rig.emcys());
     assert_eq!(rig.last_fault_state().state, FaultState::Ok);
@@ -193,7 +110,7 @@ fn reactions_are_configurable_and_latch_until_reset() {
         "\n[axis.fault_reactions]\nobserver_friction = \"fail_safe\"\n",
     );
     demo_setpoints(&mut c);
-    let mut rig = Rig::new(&c, "solenoid.toml", &["friction_x3@5s"]);
+    let mut rig = rig_on(&c, "solenoid.toml", &["friction_x3@5s"]);
     rig.run_until(9.5);
     let s = rig.last_fault_state();
     assert_eq!(s.state, FaultState::Fault, "fail_safe as configured");
@@ -212,7 +129,7 @@ fn reactions_are_configurable_and_latch_until_reset() {
         "\n[axis.fault_reactions]\nobserver_friction = \"warning\"\n",
     );
     demo_setpoints(&mut c);
-    let mut rig = Rig::new(&c, "solenoid.toml", &["friction_x3@5s"]);
+    let mut rig = rig_on(&c, "solenoid.toml", &["friction_x3@5s"]);
     rig.run_until(9.5);
     assert_eq!(rig.last_fault_state().state, FaultState::Warning);
     assert!(rig.records.last().map_or(0.0, |r| r.command_voltage) > 1.0);
@@ -234,7 +151,7 @@ fn tour(c: &mut Config, seconds: f64) {
 fn a_spring_drop_is_diagnosed_as_f2() {
     let mut c = config("solenoid.toml", "");
     tour(&mut c, 150.0);
-    let mut rig = Rig::new(&c, "solenoid.toml", &["spring_x0.73@100s"]);
+    let mut rig = rig_on(&c, "solenoid.toml", &["spring_x0.73@100s"]);
     rig.run_until(100.0);
     let d = rig.last_diagnosis();
     assert!(
@@ -258,7 +175,7 @@ fn a_spring_drop_is_diagnosed_as_f2() {
 fn a_sensor_offset_is_diagnosed_as_f5_and_announced() {
     let mut c = config("solenoid.toml", "");
     tour(&mut c, 150.0);
-    let mut rig = Rig::new(&c, "solenoid.toml", &["sensor_offset_0.0005@100s"]);
+    let mut rig = rig_on(&c, "solenoid.toml", &["sensor_offset_0.0005@100s"]);
     rig.run_until(100.0);
     assert!(rig.emcys().is_empty(), "healthy: {:?}", rig.emcys());
     // A reading 0.5 mm too high: the spring seems to pull less at the same position (F_0 -).
@@ -298,7 +215,7 @@ fn a_configured_fault_table_replaces_the_built_in_one() {
         .as_mut()
         .expect("configured")
         .fault_table = Some(path);
-    let mut rig = Rig::new(&c, "solenoid.toml", &["spring_x0.73@100s"]);
+    let mut rig = rig_on(&c, "solenoid.toml", &["spring_x0.73@100s"]);
     // The built-in table names the spring drop 30-40 s after it (a_spring_drop_is_diagnosed_as_f2).
     rig.run_until(150.0);
     // The spring drop's symptoms, named by the configured table.
@@ -349,7 +266,7 @@ fn adaptive_friction_lowers_the_small_step_offset() {
             .enumerate()
             .map(|(i, p)| step(i as f64, *p))
             .collect();
-        let mut rig = Rig::new(&c, "solenoid.toml", &[]);
+        let mut rig = rig_on(&c, "solenoid.toml", &[]);
         rig.run_until(w.len() as f64);
         let (mut sum, mut n) = (0.0, 0);
         for r in &rig.records {
@@ -440,7 +357,7 @@ fn scheduling_picks_other_gains_at_another_supply() {
         let mut c = config("pneumatic.toml", "");
         c.axis[0].pneumatic_adaptive = None;
         pneumatic_steps(&mut c, 6.0);
-        let mut rig = Rig::new(&c, "pneumatic.toml", fault);
+        let mut rig = rig_on(&c, "pneumatic.toml", fault);
         rig.run_until(6.0);
         last_gains(&rig)
     };
@@ -460,7 +377,7 @@ fn scheduling_picks_other_gains_at_another_supply() {
 fn estimated_drive_gains_reach_the_bus_and_follow_the_supply() {
     let mut c = config("pneumatic.toml", "");
     pneumatic_steps(&mut c, 60.0);
-    let mut rig = Rig::new(&c, "pneumatic.toml", &["supply_x0.5@30s"]);
+    let mut rig = rig_on(&c, "pneumatic.toml", &["supply_x0.5@30s"]);
     rig.run_until(30.0);
     let before = last_gains(&rig);
     rig.run_until(60.0);
@@ -491,7 +408,7 @@ fn largest_compensation(rig: &Rig) -> (f64, f64) {
 fn a_healthy_200_s_tour_raises_no_finding_and_the_compensation_stays_bounded() {
     let mut c = config("solenoid.toml", "");
     tour(&mut c, 200.0);
-    let mut rig = Rig::new(&c, "solenoid.toml", &[]);
+    let mut rig = rig_on(&c, "solenoid.toml", &[]);
     rig.run_until(200.0);
     let d = rig.last_diagnosis();
     assert!(d.nominal_learned && d.observer_learned, "{d:?}");
@@ -537,7 +454,7 @@ fn small_steps_for_200_s_keep_the_learned_friction_bounded() {
     c.axis[0].setpoints = (0..400)
         .map(|i| step(0.5 * f64::from(i), if i % 2 == 0 { 0.0102 } else { 0.0100 }))
         .collect();
-    let mut rig = Rig::new(&c, "solenoid.toml", &[]);
+    let mut rig = rig_on(&c, "solenoid.toml", &[]);
     rig.run_until(200.0);
     assert!(rig.emcys().is_empty(), "healthy: {:?}", rig.emcys());
     // What the loop feels of the compensation is its jump U+ + U- where the error changes sign:
@@ -594,12 +511,12 @@ fn small_steps_for_200_s_keep_the_learned_friction_bounded() {
 fn a_friction_rise_in_the_long_tour_is_still_caught() {
     let mut c = config("solenoid.toml", "");
     tour(&mut c, 200.0);
-    let mut rig = Rig::new(&c, "solenoid.toml", &["friction_x3@100s"]);
+    let mut rig = rig_on(&c, "solenoid.toml", &["friction_x3@100s"]);
     rig.run_until(200.0);
     let emcys = rig.emcys();
     let (k, e) = emcys.first().expect("an EMCY for the friction rise");
     assert!(
-        *k as f64 * rig.period_s > 100.0,
+        *k as f64 * rig.period_s() > 100.0,
         "only after the fault: {e:?}"
     );
     assert!(
@@ -626,7 +543,7 @@ fn a_supply_back_in_its_band_is_announced_while_a_finding_stays_latched() {
     demo_setpoints(&mut c);
     // The observer's friction finding latches (maintenance requested), then the supply dips to
     // 70 % (outside the scheduled band, inside the hard band) and comes back.
-    let mut rig = Rig::new(
+    let mut rig = rig_on(
         &c,
         "solenoid.toml",
         &[
@@ -644,7 +561,7 @@ fn a_supply_back_in_its_band_is_announced_while_a_finding_stays_latched() {
     let after: Vec<Emcy> = rig
         .emcys()
         .into_iter()
-        .filter(|(k, _)| *k as f64 * rig.period_s > 9.5)
+        .filter(|(k, _)| *k as f64 * rig.period_s() > 9.5)
         .map(|(_, e)| e)
         .collect();
     let codes: Vec<u16> = after.iter().map(|e| e.error_code).collect();

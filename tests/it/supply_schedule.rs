@@ -1,96 +1,26 @@
 //! Supply scheduling of the shipped electrical axes on a 24 V board net: the controller node and
 //! the simulated node frame by frame, the supply moved by faults as a cranking dip moves it.
 
-use actuatord::bus::Frame;
-use actuatord::daemon::node::CycleTiming;
-use actuatord::daemon::record::{CycleRecord, Record};
-use actuatord::daemon::{Config, ControllerNode};
+use crate::common::lockstep::Rig;
+use actuatord::daemon::Config;
 use actuatord::defaults::{self, Source};
-use actuatord::device::{messages, Emcy, FaultStatePdo};
-use actuatord::physics::{Family, ScheduledFault};
-use actuatord::simnode::SimNode;
+use actuatord::device::{messages, FaultStatePdo};
+use actuatord::physics::Family;
 use actuatord::supervise::{FaultKind, FaultState};
 
-struct Rig {
-    controller: ControllerNode,
-    sim: SimNode,
-    period_s: f64,
-    k: u64,
-    sent: Vec<(u64, Frame)>,
-    records: Vec<CycleRecord>,
+/// The family's built-in plant at `supply_v` (its own when `None`) in lock step with the
+/// controller.
+fn rig_on(config: &Config, family: Family, faults: &[&str], supply_v: Option<f64>) -> Rig {
+    let mut plant = Source::Builtin(defaults::plant(family))
+        .plant()
+        .expect("plant");
+    if let Some(v) = supply_v {
+        plant.set_supply(v);
+    }
+    Rig::new(config, plant, faults)
 }
 
 impl Rig {
-    fn new(config: &Config, family: Family, faults: &[&str], supply_v: Option<f64>) -> Self {
-        let mut plant = Source::Builtin(defaults::plant(family))
-            .plant()
-            .expect("plant");
-        if let Some(v) = supply_v {
-            plant.set_supply(v);
-        }
-        let faults: Vec<ScheduledFault> =
-            faults.iter().map(|f| f.parse().expect("fault")).collect();
-        let period_s = config.cycle.period_s;
-        let mut rig = Rig {
-            controller: ControllerNode::new(config).expect("controller"),
-            sim: SimNode::new(16, plant, period_s, faults),
-            period_s,
-            k: 0,
-            sent: vec![],
-            records: vec![],
-        };
-        let mut to_sim = vec![];
-        rig.sim.boot(&mut |_| {});
-        rig.controller.boot(&mut |f| to_sim.push(*f), &mut |_| {});
-        for f in &to_sim {
-            rig.sim.handle(f, &mut |_| {}, &mut |_| {});
-        }
-        rig
-    }
-
-    fn run_until(&mut self, t_end: f64) {
-        while (self.k as f64) * self.period_s < t_end {
-            let t = self.k as f64 * self.period_s;
-            if self.k % 100 == 0 {
-                let hb = self.sim.heartbeat();
-                self.controller.handle(&hb, t, &mut |_| {});
-            }
-            self.controller.begin_cycle();
-            let sync = self.controller.sync_frame();
-            let mut answers = vec![];
-            self.sim
-                .handle(&sync, &mut |a| answers.push(*a), &mut |_| {});
-            for a in &answers {
-                self.controller.handle(a, t, &mut |_| {});
-            }
-            let mut out = vec![];
-            let records = &mut self.records;
-            self.controller.finish_cycle(
-                t,
-                CycleTiming::default(),
-                &mut |f| out.push(*f),
-                &mut |r| {
-                    if let Record::Cycle(c) = r {
-                        records.push(c)
-                    }
-                },
-            );
-            for f in &out {
-                self.sim.handle(f, &mut |_| {}, &mut |_| {});
-            }
-            self.sent.extend(out.into_iter().map(|f| (self.k, f)));
-            self.k += 1;
-        }
-    }
-
-    fn emcys(&self) -> Vec<(u64, Emcy)> {
-        self.sent
-            .iter()
-            .filter(|(_, f)| f.id() == messages::EMCY.cob_id(1))
-            .map(|(k, f)| (*k, Emcy::decode(f).expect("emcy decodes")))
-            .collect()
-    }
-
     fn rms_error(&self, from_s: f64) -> f64 {
         let e: Vec<f64> = self
             .records
@@ -113,7 +43,7 @@ fn a_cranking_dip_warns_goes_on_scheduled_and_clears_and_the_hard_band_still_tri
     let config = shipped(Family::MotorGear);
     // 24 V to 12 V at 2.5 s (inside the hard band 10-36 V, outside the scheduled 18-32 V), back
     // at 3.0 s.
-    let mut rig = Rig::new(
+    let mut rig = rig_on(
         &config,
         Family::MotorGear,
         &["supply_x0.5@2.5s", "supply_x2@3.0s"],
@@ -152,7 +82,7 @@ fn a_cranking_dip_warns_goes_on_scheduled_and_clears_and_the_hard_band_still_tri
     assert!(rig.records.iter().all(|r| r.fault_flags == 0));
 
     // Below the hard band (9.6 V): the supply fault and the safe state, one EMCY only.
-    let mut rig = Rig::new(&config, Family::MotorGear, &["supply_x0.4@1.5s"], None);
+    let mut rig = rig_on(&config, Family::MotorGear, &["supply_x0.4@1.5s"], None);
     rig.run_until(2.0);
     let codes: Vec<u16> = rig.emcys().iter().map(|(_, e)| e.error_code).collect();
     assert_eq!(codes, vec![0x3100], "{codes:?}");
@@ -167,7 +97,7 @@ fn at_half_the_supply_the_scheduled_linear_axis_tracks_as_at_nominal_and_fixed_g
     let mut fixed = scheduled.clone();
     fixed.axis[0].schedule = None;
     let rms = |config: &Config, supply_v: f64| {
-        let mut rig = Rig::new(config, Family::LinearAxis, &[], Some(supply_v));
+        let mut rig = rig_on(config, Family::LinearAxis, &[], Some(supply_v));
         rig.run_until(5.0);
         rig.rms_error(1.0)
     };
@@ -195,7 +125,7 @@ fn at_half_the_supply_the_scheduled_linear_axis_tracks_as_at_nominal_and_fixed_g
             at_s: 0.5,
             position_m: 0.15,
         }];
-        let mut rig = Rig::new(&far, Family::LinearAxis, &[], Some(34.0));
+        let mut rig = rig_on(&far, Family::LinearAxis, &[], Some(34.0));
         rig.run_until(3.0);
         rig.records
             .iter()
@@ -219,7 +149,7 @@ fn above_the_nominal_supply_the_schedule_keeps_the_tuned_gains_and_tracks_as_fix
     let mut fixed = scheduled.clone();
     fixed.axis[0].schedule = None;
     let rms = |config: &Config, supply_v: f64| {
-        let mut rig = Rig::new(config, Family::LinearAxis, &[], Some(supply_v));
+        let mut rig = rig_on(config, Family::LinearAxis, &[], Some(supply_v));
         rig.run_until(5.0);
         rig.rms_error(1.0)
     };
