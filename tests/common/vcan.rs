@@ -12,8 +12,9 @@ pub fn iface() -> String {
     std::env::var("ACTUATORD_TEST_IFACE").unwrap_or_else(|_| "vcan0".into())
 }
 
+/// A repository file (`tests/common/paths.rs` knows where the repository is).
 pub fn root(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
+    super::paths::root().join(path)
 }
 
 /// Kills a child when dropped, so a failing assertion leaves no process behind.
