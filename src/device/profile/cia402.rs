@@ -18,6 +18,18 @@ pub const MODES_OF_OPERATION_DISPLAY: u16 = 0x6061;
 pub const POSITION_ACTUAL: u16 = 0x6064;
 /// Velocity actual value (INTEGER32, velocity units).
 pub const VELOCITY_ACTUAL: u16 = 0x606C;
+/// Target position (INTEGER32, position units): the set-point of CSP, every SYNC.
+pub const TARGET_POSITION: u16 = 0x607A;
+/// Home offset (INTEGER32, position units): the application's zero lies this far beyond the
+/// home point, so the home point reads minus the offset once homing is attained.
+pub const HOME_OFFSET: u16 = 0x607C;
+/// Homing method (INTEGER8).
+pub const HOMING_METHOD: u16 = 0x6098;
+/// Homing speeds (record of UNSIGNED32, velocity units): sub 1 during the search for the
+/// switch, sub 2 during the search for zero (the switch edge or the index pulse).
+pub const HOMING_SPEEDS: u16 = 0x6099;
+/// Homing acceleration (UNSIGNED32, acceleration units).
+pub const HOMING_ACCELERATION: u16 = 0x609A;
 /// Target torque (INTEGER16, per thousand of the rated torque).
 pub const TARGET_TORQUE: u16 = 0x6071;
 /// Max torque (UNSIGNED16, per thousand of the rated torque).
@@ -38,7 +50,9 @@ pub const DEVICE_TYPE: u32 = 0x0002_0192;
 /// Modes of operation (6060h) used here.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
-    /// Cyclic synchronous position.
+    /// Homing: the drive finds its home point by 6098h's method on controlword bit 4.
+    Homing = 6,
+    /// Cyclic synchronous position: 607Ah every SYNC, the drive closes the position loop.
     CyclicSynchronousPosition = 8,
     /// Cyclic synchronous velocity: 60FFh every SYNC.
     CyclicSynchronousVelocity = 9,
@@ -53,6 +67,7 @@ impl Mode {
 
     pub fn from_code(code: i8) -> Option<Self> {
         match code {
+            6 => Some(Mode::Homing),
             8 => Some(Mode::CyclicSynchronousPosition),
             9 => Some(Mode::CyclicSynchronousVelocity),
             10 => Some(Mode::CyclicSynchronousTorque),
@@ -62,6 +77,7 @@ impl Mode {
 
     pub fn name(self) -> &'static str {
         match self {
+            Mode::Homing => "homing",
             Mode::CyclicSynchronousPosition => "CSP",
             Mode::CyclicSynchronousVelocity => "CSV",
             Mode::CyclicSynchronousTorque => "CST",
@@ -96,6 +112,10 @@ pub mod status {
     pub const REMOTE: u16 = 1 << 9;
     pub const TARGET_REACHED: u16 = 1 << 10;
     pub const INTERNAL_LIMIT_ACTIVE: u16 = 1 << 11;
+    /// Homing mode: homing attained. CSP: the drive follows the target position.
+    pub const HOMING_ATTAINED: u16 = 1 << 12;
+    /// Homing mode: homing error.
+    pub const HOMING_ERROR: u16 = 1 << 13;
 }
 
 /// Controlword bits (CiA 402 Table 4).
@@ -108,6 +128,8 @@ pub mod control {
     /// A rising edge resets a fault.
     pub const FAULT_RESET: u16 = 1 << 7;
     pub const HALT: u16 = 1 << 8;
+    /// Homing mode: a rising edge starts homing, a falling edge interrupts it.
+    pub const HOMING_START: u16 = 1 << 4;
 }
 
 /// The device control commands (CiA 402 Table 5), as controlword values.
@@ -249,6 +271,11 @@ impl DriveStateMachine {
 
     pub fn set_quick_stop_option(&mut self, option: i16) {
         self.quick_stop_option = option;
+    }
+
+    /// The controlword last received.
+    pub fn last_controlword(&self) -> u16 {
+        self.last_controlword
     }
 
     /// Transition 1: self-test and initialisation done.

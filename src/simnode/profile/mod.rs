@@ -1,5 +1,5 @@
-//! A simulated standard node in front of a plant: a CiA 402 drive (cyclic synchronous torque or
-//! velocity) or a CiA 401 analog I/O module. Its object dictionary is served over SDO, its PDO
+//! A simulated standard node in front of a plant: a CiA 402 drive (cyclic synchronous torque,
+//! velocity or position, and homing) or a CiA 401 analog I/O module. Its object dictionary is served over SDO, its PDO
 //! communication and mapping parameters follow CiA 301 (written by SDO, checked with the
 //! standard's abort codes), and its PDOs carry whatever is mapped. Sans-I/O.
 
@@ -14,6 +14,9 @@ use crate::device::profile::mapping::{
 };
 use crate::physics::Plant;
 use std::str::FromStr;
+
+pub mod homing;
+use homing::{Homing, HomingParameters, HomingStatus};
 
 /// Which standard the node speaks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -84,6 +87,11 @@ pub const IO_COMMAND_DUTY: Scaling = Scaling {
 /// Velocity loop of the simulated drive in CSV (force per velocity error, per its integral).
 const VELOCITY_KP: f64 = 200.0;
 const VELOCITY_KI: f64 = 2000.0;
+/// Position loop of the simulated drive in CSP and homing, around the velocity loop
+/// (velocity per position error; the velocity loop's integral holds the load).
+const POSITION_KP: f64 = 80.0;
+/// The drive's acceleration units (609Ah): µm/s² (µrad/s²).
+pub const DRIVE_ACCELERATION_UNIT: f64 = 1e-6;
 
 /// A drive fault to raise at a plant time, e.g. `0x4310@2s` (over-temperature at 2 s).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -325,11 +333,42 @@ pub fn dictionary(profile: Profile, node_id: u8) -> ObjectDictionary {
                     EntrySpec::rw("target_velocity", 0i32).pdo().unit("um/s"),
                 )
                 .var(
+                    cia402::TARGET_POSITION,
+                    EntrySpec::rw("target_position", 0i32).pdo().unit("um"),
+                )
+                .var(
+                    cia402::HOME_OFFSET,
+                    EntrySpec::rw("home_offset", 0i32).unit("um"),
+                )
+                .var(
+                    cia402::HOMING_METHOD,
+                    EntrySpec::rw("homing_method", 37i8).doc("1, 2, 17, 18, 33, 34, 35, 37"),
+                )
+                .record(
+                    cia402::HOMING_SPEEDS,
+                    "homing_speeds",
+                    None,
+                    vec![
+                        EntrySpec::rw("speed_during_search_for_switch", 20_000u32).unit("um/s"),
+                        EntrySpec::rw("speed_during_search_for_zero", 2_000u32).unit("um/s"),
+                    ],
+                )
+                .var(
+                    cia402::HOMING_ACCELERATION,
+                    EntrySpec::rw("homing_acceleration", 500_000u32).unit("um/s2"),
+                )
+                .var(
                     cia402::SUPPORTED_DRIVE_MODES,
                     EntrySpec::ro(
                         "supported_drive_modes",
-                        (1u32 << (Mode::CyclicSynchronousVelocity.code() - 1))
-                            | (1u32 << (Mode::CyclicSynchronousTorque.code() - 1)),
+                        [
+                            Mode::Homing,
+                            Mode::CyclicSynchronousPosition,
+                            Mode::CyclicSynchronousVelocity,
+                            Mode::CyclicSynchronousTorque,
+                        ]
+                        .iter()
+                        .fold(0u32, |bits, m| bits | (1u32 << (m.code() - 1))),
                     ),
                 )
         }
@@ -419,6 +458,13 @@ pub struct ProfileNode {
     drive_faults: Vec<DriveFault>,
     next_drive_fault: usize,
     velocity_integral: f64,
+    homing: Homing,
+    /// The plant position where 6064h reads 0: moved by homing.
+    position_origin_m: f64,
+    /// The plant's position as last measured.
+    position_m: f64,
+    /// CSP's target position of the last period (plant m), for the velocity feed-forward.
+    last_target_m: Option<f64>,
     syncs: u64,
     /// EMCY frames the device wants to send (drive faults and their reset).
     pending_emcy: Option<Frame>,
@@ -440,6 +486,10 @@ impl ProfileNode {
             drive_faults,
             next_drive_fault: 0,
             velocity_integral: 0.0,
+            homing: Homing::new(),
+            position_origin_m: 0.0,
+            position_m: 0.0,
+            last_target_m: None,
             syncs: 0,
             pending_emcy: None,
         };
@@ -460,6 +510,16 @@ impl ProfileNode {
         self.drive.state()
     }
 
+    /// What the statusword shows of homing (bits 10, 12, 13 in homing mode).
+    pub fn homing_status(&self) -> HomingStatus {
+        self.homing.status()
+    }
+
+    /// The plant position where the position actual value reads 0.
+    pub fn position_origin_m(&self) -> f64 {
+        self.position_origin_m
+    }
+
     /// The PDOs as configured now.
     pub fn pdos(&self) -> &[Pdo] {
         &self.pdos
@@ -472,6 +532,9 @@ impl ProfileNode {
         self.drive = DriveStateMachine::new();
         self.drive.initialised();
         self.velocity_integral = 0.0;
+        self.homing = Homing::new();
+        self.position_origin_m = 0.0;
+        self.last_target_m = None;
         self.refresh_pdos();
         self.publish_status();
     }
@@ -682,12 +745,7 @@ impl ProfileNode {
         }
         if ccs == 1 && id.index == cia402::MODES_OF_OPERATION && d.len() == 8 {
             let mode = d[4] as i8;
-            if mode != 0
-                && !matches!(
-                    Mode::from_code(mode),
-                    Some(Mode::CyclicSynchronousTorque | Mode::CyclicSynchronousVelocity)
-                )
-            {
+            if mode != 0 && Mode::from_code(mode).is_none() {
                 send(&sdo::abort_frame(
                     sdo::response_cob_id(self.node_id),
                     id,
@@ -695,6 +753,18 @@ impl ProfileNode {
                 ));
                 return;
             }
+        }
+        if ccs == 1
+            && id.index == cia402::HOMING_METHOD
+            && d.len() == 8
+            && !homing::METHODS.contains(&(d[4] as i8))
+        {
+            send(&sdo::abort_frame(
+                sdo::response_cob_id(self.node_id),
+                id,
+                AbortCode::VALUE_RANGE_EXCEEDED,
+            ));
+            return;
         }
         if let Some(answer) = self.sdo.handle(frame, now_s, &mut self.od, state) {
             send(&answer);
@@ -725,15 +795,61 @@ impl ProfileNode {
     }
 
     fn on_controlword(&mut self, cw: u16) {
+        let start = cia402::control::HOMING_START;
+        let was = self.drive.last_controlword() & start != 0;
         let transition = self.drive.on_controlword(cw);
+        let homing_mode = self.mode() == Some(Mode::Homing);
+        let enabled = self.drive.state().is_enabled();
+        if homing_mode && enabled && cw & start != 0 && !was {
+            self.start_homing();
+        } else if self.homing.is_moving() && (cw & start == 0 || !enabled || !homing_mode) {
+            self.homing.interrupt();
+        }
         if transition == Some(15) {
             // The fault is gone: EMCY "error reset" (CiA 301 §7.2.7.1).
             self.pending_emcy = Some(self.emcy(0, 0));
         }
         if matches!(transition, Some(2 | 7 | 9 | 10 | 12 | 15)) {
             self.velocity_integral = 0.0;
+            self.last_target_m = None;
         }
         self.publish_status();
+    }
+
+    /// The mode of operation 6060h asks for.
+    fn mode(&self) -> Option<Mode> {
+        Mode::from_code(self.f64_at(cia402::MODES_OF_OPERATION, 0) as i8)
+    }
+
+    /// Homing starts from the objects as they are now; a current-position method moves the
+    /// origin at once.
+    fn start_homing(&mut self) {
+        let speed = |sub| self.f64_at(cia402::HOMING_SPEEDS, sub) * DRIVE_VELOCITY_UNIT;
+        let parameters = HomingParameters {
+            method: self.f64_at(cia402::HOMING_METHOD, 0) as i8,
+            speed_switch_m_per_s: speed(1),
+            speed_zero_m_per_s: speed(2),
+            acceleration_m_per_s2: self.f64_at(cia402::HOMING_ACCELERATION, 0)
+                * DRIVE_ACCELERATION_UNIT,
+            timeout_s: homing::HOMING_TIMEOUT_S,
+        };
+        if let Some(home) = self.homing.start(parameters, self.position_m) {
+            self.set_home(home);
+        }
+    }
+
+    /// The home point found: it reads minus the home offset from now on (CiA 402: the zero
+    /// position lies the home offset beyond the home point).
+    fn set_home(&mut self, home_m: f64) {
+        let offset_m = self.f64_at(cia402::HOME_OFFSET, 0) * DRIVE_POSITION_UNIT;
+        // The origin: the home point plus the offset.
+        self.position_origin_m = home_m + offset_m;
+        self.publish_position();
+    }
+
+    fn publish_position(&mut self) {
+        let raw = (self.position_m - self.position_origin_m) / DRIVE_POSITION_UNIT;
+        self.set_f64(cia402::POSITION_ACTUAL, 0, raw);
     }
 
     fn emcy(&self, code: u16, register: u8) -> Frame {
@@ -748,7 +864,14 @@ impl ProfileNode {
 
     fn publish_status(&mut self) {
         if self.profile == Profile::Cia402 {
-            let sw = self.drive.statusword();
+            let mut sw = self.drive.statusword();
+            match self.mode() {
+                Some(Mode::Homing) => sw |= self.homing.status().statusword_bits(),
+                Some(Mode::CyclicSynchronousPosition) if self.drive.state().is_enabled() => {
+                    sw |= cia402::status::HOMING_ATTAINED
+                }
+                _ => {}
+            }
             let code = self.drive.error_code();
             self.set(ObjectId::new(cia402::STATUSWORD, 0), Value::Unsigned16(sw));
             self.set(
@@ -836,7 +959,8 @@ impl ProfileNode {
         let m = plant.measure();
         match self.profile {
             Profile::Cia402 => {
-                self.set_f64(cia402::POSITION_ACTUAL, 0, m.position / DRIVE_POSITION_UNIT);
+                self.position_m = m.position;
+                self.publish_position();
                 self.set_f64(cia402::VELOCITY_ACTUAL, 0, m.velocity / DRIVE_VELOCITY_UNIT);
                 let rated_n = f64::from(DRIVE_RATED_TORQUE_MNM) * 1e-3;
                 self.set_f64(cia402::TORQUE_ACTUAL, 0, command / rated_n * 1000.0);
@@ -920,9 +1044,18 @@ impl ProfileNode {
         let rated_n = f64::from(DRIVE_RATED_TORQUE_MNM) * 1e-3;
         let max_n = self.f64_at(cia402::MAX_TORQUE, 0) * 1e-3 * rated_n;
         if !self.drive.state().is_enabled() {
+            if self.homing.is_moving() {
+                self.homing.interrupt();
+            }
             return 0.0;
         }
-        let mode = Mode::from_code(self.f64_at(cia402::MODES_OF_OPERATION, 0) as i8);
+        let mode = self.mode();
+        if mode != Some(Mode::CyclicSynchronousPosition) {
+            self.last_target_m = None;
+        }
+        if mode != Some(Mode::Homing) && self.homing.is_moving() {
+            self.homing.interrupt();
+        }
         let force = match mode {
             // 6071h in per mille of 6076h.
             Some(Mode::CyclicSynchronousTorque) => {
@@ -930,18 +1063,46 @@ impl ProfileNode {
             }
             Some(Mode::CyclicSynchronousVelocity) => {
                 let target = self.f64_at(cia402::TARGET_VELOCITY, 0) * DRIVE_VELOCITY_UNIT;
-                let actual = self.f64_at(cia402::VELOCITY_ACTUAL, 0) * DRIVE_VELOCITY_UNIT;
-                let e = target - actual;
-                // PI velocity loop: F = K_P e + K_I ∫e dt, the integral held at the torque limit.
-                let f = VELOCITY_KP * e + VELOCITY_KI * (self.velocity_integral + e * dt);
-                if f.abs() < max_n {
-                    self.velocity_integral += e * dt;
+                self.velocity_loop(target, dt, max_n)
+            }
+            Some(Mode::CyclicSynchronousPosition) => {
+                let target = self.f64_at(cia402::TARGET_POSITION, 0) * DRIVE_POSITION_UNIT
+                    + self.position_origin_m;
+                // The target's velocity over the last SYNC period feeds the velocity loop
+                // forward.
+                let feed_forward = self.last_target_m.map_or(0.0, |last| (target - last) / dt);
+                self.last_target_m = Some(target);
+                self.position_loop(target, feed_forward, dt, max_n)
+            }
+            Some(Mode::Homing) => {
+                let step = self.homing.step(self.position_m, dt);
+                if let Some(home) = step.home_m {
+                    self.set_home(home);
                 }
-                f
+                self.position_loop(step.reference_m, step.velocity_m_per_s, dt, max_n)
             }
             _ => 0.0,
         };
         force.clamp(-max_n, max_n)
+    }
+
+    /// The PI velocity loop toward `target` (m/s): F = K_P e + K_I ∫e dt, the integral held
+    /// at the torque limit.
+    fn velocity_loop(&mut self, target: f64, dt: f64, max_n: f64) -> f64 {
+        // The velocity as the drive measures it: 606Ch's resolution.
+        let actual = self.f64_at(cia402::VELOCITY_ACTUAL, 0) * DRIVE_VELOCITY_UNIT;
+        let e = target - actual;
+        let f = VELOCITY_KP * e + VELOCITY_KI * (self.velocity_integral + e * dt);
+        if f.abs() < max_n {
+            self.velocity_integral += e * dt;
+        }
+        f
+    }
+
+    /// The position loop around the velocity loop: v = v_ff + K_P (x_ref - x).
+    fn position_loop(&mut self, reference_m: f64, feed_forward: f64, dt: f64, max_n: f64) -> f64 {
+        let v = feed_forward + POSITION_KP * (reference_m - self.position_m);
+        self.velocity_loop(v, dt, max_n)
     }
 }
 
@@ -1006,7 +1167,7 @@ mod tests {
     #[test]
     fn the_drive_applies_target_torque_only_when_enabled_and_faults_on_schedule() {
         let plant = crate::physics::plant_from_str(
-            &include_str!("../../config/plants/linear_axis.toml")
+            &include_str!("../../../config/plants/linear_axis.toml")
                 .replace("command = \"voltage\"", "command = \"force\""),
             "linear_axis.toml",
         )
@@ -1073,10 +1234,109 @@ mod tests {
         let _ = sign_extend(0, 16);
     }
 
+    /// The built-in drive plant (1 kg, 2000 N/m spring, ±100 N) behind the drive.
+    fn drive_plant() -> Box<dyn Plant> {
+        crate::physics::plant_from_str(
+            include_str!("../../../config/plants/linear_axis_drive.toml"),
+            "linear_axis_drive.toml",
+        )
+        .expect("plant")
+    }
+
+    #[test]
+    fn the_drive_homes_on_its_limit_switch_and_then_tracks_csp_targets() {
+        let mut plant = drive_plant();
+        let mut n = ProfileNode::new(Profile::Cia402, 16, vec![]);
+        // A method the simulated drive does not have is refused.
+        let a = sdo_write(&mut n, cia402::HOMING_METHOD, 0, 19, 1);
+        assert_eq!(abort_code(&a), Some(0x0609_0030));
+        let mut p = n.pdos()[0].clone();
+        p.objects = vec![
+            MappedObject::new(cia402::CONTROLWORD, 0, 16),
+            MappedObject::new(cia402::TARGET_POSITION, 0, 32),
+        ];
+        p.transmission_type = 1;
+        for (index, sub, value, size) in [
+            (cia402::MODES_OF_OPERATION, 0, 6, 1),
+            (cia402::HOMING_METHOD, 0, 17, 1),
+            // The application's zero 1 mm beyond the home point.
+            (cia402::HOME_OFFSET, 0, 1000, 4),
+        ] {
+            let a = sdo_write(&mut n, index, sub, value, size);
+            assert_eq!(abort_code(&a), None, "{index:04X}");
+        }
+        for w in p.configuration_writes() {
+            sdo_write(&mut n, w.id.index, w.id.sub, w.value, w.size);
+        }
+        let op = NmtState::Operational;
+        let dt = 0.001;
+        let step = |n: &mut ProfileNode, plant: &mut dyn Plant, cw: u64, target: i32| {
+            let f = p.pack(|id| match id.index {
+                cia402::CONTROLWORD => cw,
+                _ => target as u32 as u64,
+            });
+            n.handle(&f, op, &mut |_| {});
+            n.on_sync(plant, dt, op, &mut |_| {});
+            n.f64_at(cia402::STATUSWORD, 0) as u16
+        };
+        for cw in [0x06, 0x07, 0x0F] {
+            step(&mut n, plant.as_mut(), cw, 0);
+        }
+        assert_eq!(n.drive_state(), State::OperationEnabled);
+        let sw = step(&mut n, plant.as_mut(), 0x0F, 0);
+        assert_eq!(sw & 0x3400, 0x0400, "homing not started: {sw:04x}");
+        let mut syncs = 0;
+        let sw = loop {
+            let sw = step(&mut n, plant.as_mut(), 0x1F, 0);
+            syncs += 1;
+            if sw & 0x3400 != 0 || syncs > 10_000 {
+                break sw;
+            }
+        };
+        assert_eq!(
+            sw & 0x3400,
+            0x1400,
+            "attained after {syncs} SYNCs: {sw:04x}"
+        );
+        // Home is the switch's edge; the origin lies the offset beyond it.
+        let home = n.position_origin_m() - 1e-3;
+        eprintln!(
+            "sim homing 17: home {:.4} mm after {syncs} SYNCs",
+            home * 1e3
+        );
+        assert!(
+            (home - homing::NEGATIVE_LIMIT_SWITCH_M).abs() < 5e-6,
+            "{home}"
+        );
+        // CSP from where it stands: a 5 mm ramp at 10 mm/s, then a hold.
+        sdo_write(&mut n, cia402::MODES_OF_OPERATION, 0, 8, 1);
+        let start = n.f64_at(cia402::POSITION_ACTUAL, 0) as i32;
+        assert!(
+            (start + 1000).abs() < 20,
+            "the home point reads -offset: {start}"
+        );
+        let mut worst: i32 = 0;
+        for k in 0..1500 {
+            let target = start + (k * 10).min(5000);
+            let sw = step(&mut n, plant.as_mut(), 0x0F, target);
+            assert_eq!(sw & 0x1000, 0x1000, "CSP follows: {sw:04x}");
+            // The position answers the target of one SYNC before.
+            let previous = start + ((k - 1).max(0) * 10).min(5000);
+            worst = worst.max((n.f64_at(cia402::POSITION_ACTUAL, 0) as i32 - previous).abs());
+        }
+        let end = n.f64_at(cia402::POSITION_ACTUAL, 0) as i32;
+        eprintln!(
+            "sim CSP: worst tracking error {worst} um, end {} um",
+            end - start
+        );
+        assert!(worst < 150, "{worst} um");
+        assert!((end - start - 5000).abs() <= 3, "{}", end - start);
+    }
+
     #[test]
     fn the_io_module_reads_its_inputs_and_drives_its_output() {
         let mut plant = crate::physics::plant_from_str(
-            include_str!("../../config/plants/solenoid.toml"),
+            include_str!("../../../config/plants/solenoid.toml"),
             "solenoid.toml",
         )
         .expect("plant");
