@@ -9,7 +9,7 @@
 use std::path::PathBuf;
 
 use super::config::SetpointStep;
-use super::profile_config::{Cia401Section, Cia402Section, ProfileKind};
+use super::profile_config::{Cia401Section, Cia402Section, HomingSection, ProfileKind};
 use crate::control::{
     AdaptiveFrictionSection, ControllerSection, CorrectionSection, DitherSection,
     FrictionCompensationSection, LearnedTableSection, PneumaticAdaptiveSection, ScheduleSection,
@@ -55,6 +55,7 @@ table_value!(
     LimitsSection,
     Vec<SetpointStep>,
     Cia402Section,
+    HomingSection,
     Cia401Section,
 );
 

@@ -14,6 +14,7 @@ pub mod node_sections;
 pub mod notify;
 pub mod profile_config;
 pub mod profile_dbc;
+pub mod profile_homing;
 pub mod profile_link;
 pub mod profile_setup;
 pub mod reconfigure;

@@ -202,7 +202,7 @@ impl ControllerNode {
                         .unwrap_or(0.0),
                     error_code: 0,
                 };
-                AxisSlot::new(axis, ProfileLink::new(a, &layout))
+                AxisSlot::new(axis, ProfileLink::new(a, &layout, period_s))
             })
             .collect();
         Ok(Self {
@@ -241,7 +241,7 @@ impl ControllerNode {
     /// ([`super::profile_setup::configure`]).
     pub fn set_node_layout(&mut self, index: usize, layout: &NodeLayout) {
         if let (Some(slot), Some(axis)) = (self.slots.get_mut(index), self.config.axis.get(index)) {
-            slot.link = ProfileLink::new(axis, layout);
+            slot.link = ProfileLink::new(axis, layout, self.period_s);
         }
     }
 
@@ -674,6 +674,7 @@ impl ControllerNode {
             let axis = &mut slot.axis;
             if let Some(link) = &slot.link {
                 axis.set_drive_fault(link.drive_fault());
+                axis.set_motion_enabled(link.ready_for_motion());
             }
             let step = axis.step_marked(now_s, &mut |stage| timer.mark(stage));
             let node = slot.axis.actuator_node_id;

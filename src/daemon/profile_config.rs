@@ -13,8 +13,8 @@ crate::declare_choice! {
     pub enum ProfileKind {
         /// Our own frames (`actuator sim`, or firmware written to `dbc/actuatord.dbc`).
         Actuatord = actuatord,
-        /// A CiA 402 servo drive in cyclic synchronous torque (`command = "torque"`) or velocity
-        /// (`command = "velocity"`) mode.
+        /// A CiA 402 servo drive in cyclic synchronous torque (`command = "torque"`), velocity
+        /// (`command = "velocity"`) or position (`command = "position"`, with homing) mode.
         Cia402 = cia402,
         /// A CiA 401 I/O module: analog inputs for position, current and supply, an analog
         /// output for the command.
@@ -53,6 +53,60 @@ crate::declare_section! {
         startup_timeout_s: f64 = {
             unit: "s", min: f64::MIN_POSITIVE, max: f64::MAX, access: Restart,
             doc: "wait for the drive's SDO server at start-up", words: "> 0", default: 5.0,
+        },
+        /// Homing acceleration 609Ah: m/s² (rad/s²) per unit; absent: the velocity unit per
+        /// second, as CiA 402 drives commonly count it.
+        acceleration_m_per_s2_per_unit: Option<f64> = {
+            unit: "m/s²", min: f64::MIN_POSITIVE, max: f64::MAX, access: Restart,
+            doc: "homing acceleration 609Ah per unit", words: "> 0",
+        },
+        /// Homing at start-up (`command = "position"`).
+        homing: Option<HomingSection> = { unit: "", access: Restart, doc: "" },
+    }
+}
+
+crate::declare_section! {
+    /// `[axis.cia402.homing]`: how the drive finds its home point at start-up, before the
+    /// axis is enabled for motion.
+    pub struct HomingSection {
+        /// Homing method 6098h (CiA 402: 1/2 limit switch and index pulse, 17/18 limit switch,
+        /// 33/34 index pulse, 35/37 current position, ...); the drive checks that it has it.
+        method: i32 = {
+            unit: "", min: -128.0, max: 127.0, access: Restart,
+            doc: "homing method 6098h", words: "a method number in -128..=127",
+        },
+        /// 6099h sub 1: speed during the search for the switch.
+        speed_switch_m_per_s: f64 = {
+            unit: "m/s", min: 0.0, max: f64::MAX, access: Restart,
+            doc: "homing speed 6099h sub 1, search for the switch", words: ">= 0",
+            default: 0.01,
+        },
+        /// 6099h sub 2: speed during the search for zero (the switch edge, the index pulse).
+        speed_zero_m_per_s: f64 = {
+            unit: "m/s", min: 0.0, max: f64::MAX, access: Restart,
+            doc: "homing speed 6099h sub 2, search for zero", words: ">= 0", default: 0.002,
+        },
+        /// 609Ah.
+        acceleration_m_per_s2: f64 = {
+            unit: "m/s²", min: 0.0, max: f64::MAX, access: Restart,
+            doc: "homing acceleration 609Ah", words: ">= 0", default: 0.5,
+        },
+        /// Home offset 607Ch: the application's zero lies this far beyond the home point, so
+        /// the home point reads minus this once homed.
+        offset_m: f64 = {
+            unit: "m", min: f64::MIN, max: f64::MAX, access: Restart,
+            doc: "home offset 607Ch", default: 0.0,
+        },
+        /// Homing not attained in this time is a fault of the axis.
+        timeout_s: f64 = {
+            unit: "s", min: f64::MIN_POSITIVE, max: f64::MAX, access: Restart,
+            doc: "homing must be attained within", words: "> 0", default: 30.0,
+        },
+        /// The axis is not enabled for motion before it is homed, and a failed homing is its
+        /// fault; `false`: a failed homing is reported and the axis runs unhomed.
+        require_homing: bool = {
+            unit: "", access: Restart, doc: "no motion before homing is attained",
+            default: true,
         },
     }
 }
@@ -150,6 +204,7 @@ pub fn drive_mode(command: CommandKind) -> Option<Mode> {
     match command {
         CommandKind::Torque => Some(Mode::CyclicSynchronousTorque),
         CommandKind::Velocity => Some(Mode::CyclicSynchronousVelocity),
+        CommandKind::Position => Some(Mode::CyclicSynchronousPosition),
         _ => None,
     }
 }
@@ -161,6 +216,44 @@ pub fn desired_pdos(axis: &AxisConfig) -> Vec<Pdo> {
     let n = u32::from(axis.actuator_node_id);
     match axis.profile {
         ProfileKind::Actuatord => Vec::new(),
+        ProfileKind::Cia402
+            if drive_mode(axis.command) == Some(Mode::CyclicSynchronousPosition) =>
+        {
+            // The mode travels with the target, so homing and CSP follow each other in the
+            // cycle; the torque actual value is left out (the daemon does not read it).
+            vec![
+                Pdo::sync(
+                    Direction::Receive,
+                    1,
+                    0x200 + n,
+                    &[
+                        MappedObject::new(cia402::CONTROLWORD, 0, 16),
+                        MappedObject::new(cia402::TARGET_POSITION, 0, 32),
+                        MappedObject::new(cia402::MODES_OF_OPERATION, 0, 8),
+                    ],
+                ),
+                Pdo::disabled(Direction::Receive, 2, 0x300 + n),
+                Pdo::sync(
+                    Direction::Transmit,
+                    1,
+                    0x180 + n,
+                    &[
+                        MappedObject::new(cia402::STATUSWORD, 0, 16),
+                        MappedObject::new(cia402::POSITION_ACTUAL, 0, 32),
+                        MappedObject::new(cia402::MODES_OF_OPERATION_DISPLAY, 0, 8),
+                    ],
+                ),
+                Pdo::sync(
+                    Direction::Transmit,
+                    2,
+                    0x280 + n,
+                    &[
+                        MappedObject::new(cia402::VELOCITY_ACTUAL, 0, 32),
+                        MappedObject::new(cia402::DC_LINK_VOLTAGE, 0, 32),
+                    ],
+                ),
+            ]
+        }
         ProfileKind::Cia402 => {
             let target = match drive_mode(axis.command) {
                 Some(Mode::CyclicSynchronousVelocity) => {
@@ -242,13 +335,16 @@ pub fn check(axis: &AxisConfig) -> Result<(), (String, String)> {
         let section = section.to_string();
         move |e: ParamError| (format!("{section}.{}", e.name), e.reason)
     };
-    let drive_command = matches!(axis.command, CommandKind::Torque | CommandKind::Velocity);
+    let drive_command = matches!(
+        axis.command,
+        CommandKind::Torque | CommandKind::Velocity | CommandKind::Position
+    );
     match axis.profile {
         ProfileKind::Actuatord => {
             if drive_command {
                 return err(
                     COMMAND,
-                    "\"torque\" and \"velocity\" are CiA 402 drive commands: set profile = \"cia402\""
+                    "\"torque\", \"velocity\" and \"position\" are CiA 402 drive commands: set profile = \"cia402\""
                         .into(),
                 );
             }
@@ -266,7 +362,7 @@ pub fn check(axis: &AxisConfig) -> Result<(), (String, String)> {
             if !drive_command {
                 return err(
                     COMMAND,
-                    "a CiA 402 drive is commanded with \"torque\" (CST) or \"velocity\" (CSV)"
+                    "a CiA 402 drive is commanded with \"torque\" (CST), \"velocity\" (CSV) or \"position\" (CSP)"
                         .into(),
                 );
             }
@@ -277,6 +373,19 @@ pub fn check(axis: &AxisConfig) -> Result<(), (String, String)> {
                 return err(CIA401, "belongs to profile = \"cia401\"".into());
             }
             d.check().map_err(within(CIA402))?;
+            const HOMING: &str = crate::param_key!(Cia402Section, homing);
+            if let Some(h) = &d.homing {
+                if axis.command != CommandKind::Position {
+                    return err(
+                        &format!("{CIA402}.{HOMING}"),
+                        "homes a drive in position mode: set command = \"position\"".into(),
+                    );
+                }
+                h.check().map_err(within(&format!("{CIA402}.{HOMING}")))?;
+            }
+            if axis.command == CommandKind::Position {
+                check_position_axis(axis)?;
+            }
         }
         ProfileKind::Cia401 => {
             if drive_command {
@@ -324,6 +433,50 @@ pub fn check(axis: &AxisConfig) -> Result<(), (String, String)> {
                     used.push(ch);
                 }
             }
+        }
+    }
+    Ok(())
+}
+
+/// A position axis' drive closes the loop: the sections that model or shape a force command do
+/// not fit it.
+fn check_position_axis(axis: &AxisConfig) -> Result<(), (String, String)> {
+    for (key, given) in [
+        (
+            crate::param_key!(AxisConfig, friction_compensation),
+            axis.friction_compensation.is_some(),
+        ),
+        (
+            crate::param_key!(AxisConfig, adaptive_friction),
+            axis.adaptive_friction.is_some(),
+        ),
+        (crate::param_key!(AxisConfig, dither), axis.dither.is_some()),
+        (
+            crate::param_key!(AxisConfig, correction),
+            axis.correction.is_some(),
+        ),
+        (
+            crate::param_key!(AxisConfig, pneumatic_adaptive),
+            axis.pneumatic_adaptive.is_some(),
+        ),
+        (
+            crate::param_key!(AxisConfig, observer),
+            axis.observer.is_some(),
+        ),
+        (
+            crate::param_key!(AxisConfig, parameter_estimation),
+            axis.parameter_estimation.is_some(),
+        ),
+        (
+            crate::param_key!(AxisConfig, learned_table),
+            axis.learned_table.is_some(),
+        ),
+    ] {
+        if given {
+            return Err((
+                key.to_string(),
+                "models or shapes a force command; with command = \"position\" the drive closes the loop: leave it out".into(),
+            ));
         }
     }
     Ok(())

@@ -4,6 +4,7 @@
 
 use super::config::AxisConfig;
 use super::profile_config::{drive_mode, ProfileKind};
+use super::profile_homing::{HomingFailure, HomingSequence, HOMING_FAILED};
 use crate::bus::Frame;
 use crate::canopen::emcy::EMCY_FUNCTION_CODE;
 use crate::canopen::EmcyFrame;
@@ -53,6 +54,12 @@ enum Device {
         /// The code of the drive's last EMCY, 0 after its reset.
         emcy_code: u16,
         reset_grace: u32,
+        /// 6064h as last received, raw: a position drive's target until it may move.
+        position_raw: i64,
+        /// 6061h as last received.
+        mode_display: i8,
+        /// A position drive's homing at start-up, when configured.
+        homing: Option<HomingSequence>,
     },
     Io {
         position: (u8, Scaling),
@@ -77,7 +84,7 @@ pub struct ProfileLink {
 
 impl ProfileLink {
     /// The link of `axis` with the layout its node was given; `None` for an actuatord axis.
-    pub fn new(axis: &AxisConfig, layout: &NodeLayout) -> Option<Self> {
+    pub fn new(axis: &AxisConfig, layout: &NodeLayout, period_s: f64) -> Option<Self> {
         let device = match axis.profile {
             ProfileKind::Actuatord => return None,
             ProfileKind::Cia402 => {
@@ -94,6 +101,12 @@ impl ProfileLink {
                     statusword: 0,
                     emcy_code: layout.error_code,
                     reset_grace: 0,
+                    position_raw: 0,
+                    mode_display: 0,
+                    homing: d
+                        .homing
+                        .as_ref()
+                        .map(|h| HomingSequence::new(h.timeout_s, period_s, h.require_homing)),
                 }
             }
             ProfileKind::Cia401 => {
@@ -171,14 +184,18 @@ impl ProfileLink {
                     position_m_per_inc,
                     dc_link_v_per_unit,
                     statusword,
+                    position_raw,
+                    mode_display,
                     ..
                 } => match o.id.index {
+                    cia402::MODES_OF_OPERATION_DISPLAY => *mode_display = raw as u8 as i8,
                     cia402::STATUSWORD => {
                         *statusword = raw as u16;
                         driver.on_statusword(*statusword);
                     }
                     cia402::POSITION_ACTUAL => {
-                        self.sensor.position = sign_extend(raw, o.bits) as f64 * *position_m_per_inc
+                        *position_raw = sign_extend(raw, o.bits);
+                        self.sensor.position = *position_raw as f64 * *position_m_per_inc
                     }
                     cia402::DC_LINK_VOLTAGE => {
                         self.sensor.supply_voltage_v = raw as f64 * *dc_link_v_per_unit
@@ -259,7 +276,47 @@ impl ProfileLink {
                     UNKNOWN_DRIVE_ERROR
                 })
             }
+            Device::Drive {
+                homing: Some(h), ..
+            } if h.fault().is_some() => Some(HOMING_FAILED),
             _ => None,
+        }
+    }
+
+    /// Why the drive's homing failed, if it did (a fault of the axis when homing is required).
+    pub fn homing_failure(&self) -> Option<HomingFailure> {
+        match &self.device {
+            Device::Drive {
+                homing: Some(h), ..
+            } => h.failure(),
+            _ => None,
+        }
+    }
+
+    /// The drive was homed (`None`: no homing configured).
+    pub fn homed(&self) -> Option<bool> {
+        match &self.device {
+            Device::Drive {
+                homing: Some(h), ..
+            } => Some(h.attained()),
+            _ => None,
+        }
+    }
+
+    /// The axis may move: a position drive homed where homing is required and showing CSP;
+    /// every other node at once.
+    pub fn ready_for_motion(&self) -> bool {
+        match &self.device {
+            Device::Drive {
+                mode: Mode::CyclicSynchronousPosition,
+                homing,
+                mode_display,
+                ..
+            } => {
+                homing.is_none_or(|h| h.ready_for_motion())
+                    && *mode_display == Mode::CyclicSynchronousPosition.code()
+            }
+            _ => true,
         }
     }
 
@@ -268,9 +325,13 @@ impl ProfileLink {
         if let Device::Drive {
             driver,
             reset_grace,
+            homing,
             ..
         } = &mut self.device
         {
+            if let Some(h) = homing {
+                h.retry();
+            }
             if driver.state().is_some_and(State::is_fault) {
                 driver.request_fault_reset();
                 *reset_grace = RESET_GRACE_CYCLES;
@@ -291,20 +352,42 @@ impl ProfileLink {
             Device::Io { command, .. } => Some(command.0),
             Device::Drive { .. } => None,
         };
+        let mut mode_code = 0i8;
         let (controlword, target) = match &mut self.device {
             Device::Drive {
                 driver,
                 mode,
                 velocity_per_unit,
+                position_m_per_inc,
                 rated_torque_nm,
                 reset_grace,
+                statusword,
+                position_raw,
+                mode_display,
+                homing,
                 ..
             } => {
                 *reset_grace = reset_grace.saturating_sub(1);
-                let cw = driver.controlword();
+                let mut cw = driver.controlword();
                 let enabled = driver.state() == Some(State::OperationEnabled)
                     && driver.target() == Target::Enabled;
+                mode_code = mode.code();
+                if let Some(h) = homing {
+                    h.step(driver.state(), *statusword, *mode_display);
+                    mode_code = h.mode().code();
+                    if h.start_bit() && enabled {
+                        cw |= cia402::control::HOMING_START;
+                    }
+                }
+                let may_move = homing.is_none_or(|h| h.ready_for_motion())
+                    && *mode_display == Mode::CyclicSynchronousPosition.code();
                 let target = match mode {
+                    // 607Ah in position units; where it stands until the axis may move, so
+                    // neither homing nor the switch to CSP sees a step.
+                    Mode::CyclicSynchronousPosition if enabled && may_move => {
+                        to_raw_signed(command / *position_m_per_inc, 32)
+                    }
+                    Mode::CyclicSynchronousPosition => to_raw_signed(*position_raw as f64, 32),
                     // 6071h: per mille of the rated torque 6076h.
                     Mode::CyclicSynchronousTorque if *rated_torque_nm > 0.0 => {
                         to_raw_signed(command / *rated_torque_nm * 1000.0, 16)
@@ -315,14 +398,16 @@ impl ProfileLink {
                     _ => 0,
                 };
                 // Until the drive is enabled the target is 0: no torque step when it is.
-                (cw, if enabled { target } else { 0 })
+                let csp = *mode == Mode::CyclicSynchronousPosition;
+                (cw, if enabled || csp { target } else { 0 })
             }
             Device::Io { command: c, .. } => (0, c.1.to_raw(command) as u16 as u64),
         };
         for p in &self.rx {
             send(&p.pack(|id| match id.index {
                 cia402::CONTROLWORD => u64::from(controlword),
-                cia402::TARGET_TORQUE | cia402::TARGET_VELOCITY => target,
+                cia402::TARGET_TORQUE | cia402::TARGET_VELOCITY | cia402::TARGET_POSITION => target,
+                cia402::MODES_OF_OPERATION => u64::from(mode_code as u8),
                 cia401::ANALOG_OUTPUTS_16 if Some(id.sub) == io_channel => target,
                 _ => 0,
             }));

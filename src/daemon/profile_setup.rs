@@ -5,7 +5,7 @@
 //! and check the mode of operation and read the rated torque.
 
 use super::config::AxisConfig;
-use super::profile_config::{desired_pdos, drive_mode, Cia402Section, ProfileKind};
+use super::profile_config::{desired_pdos, drive_mode, Cia402Section, HomingSection, ProfileKind};
 use super::profile_link::NodeLayout;
 use crate::bus::{Bus, BusError, BusEvent};
 use crate::canopen::od::ObjectId;
@@ -206,6 +206,7 @@ fn required(axis: &AxisConfig) -> Vec<(Direction, ObjectId)> {
         ProfileKind::Cia402 => {
             let target = match drive_mode(axis.command) {
                 Some(cia402::Mode::CyclicSynchronousVelocity) => cia402::TARGET_VELOCITY,
+                Some(cia402::Mode::CyclicSynchronousPosition) => cia402::TARGET_POSITION,
                 _ => cia402::TARGET_TORQUE,
             };
             vec![
@@ -290,6 +291,92 @@ pub fn planned_layout(axis: &AxisConfig) -> Result<Vec<Pdo>, SetupError> {
     Ok(pdos)
 }
 
+/// A homing object's write: index, sub, bytes, the value read back and its mask, its name.
+type HomingWrite = (u16, u8, Vec<u8>, u32, u32, &'static str);
+
+/// The homing objects in the drive's units, each read back.
+fn write_homing(s: &mut Session, d: &Cia402Section, h: &HomingSection) -> Result<(), SetupError> {
+    let velocity = d.velocity_m_per_s_per_unit;
+    let acceleration = d.acceleration_m_per_s2_per_unit.unwrap_or(velocity);
+    let out_of_range = |key: &str, value: f64| SetupError::Layout {
+        axis: s.axis.clone(),
+        reason: format!(
+            "{}.{}.{key} = {value} does not fit the drive's object in its units",
+            crate::param_key!(AxisConfig, cia402),
+            crate::param_key!(Cia402Section, homing),
+        ),
+    };
+    // Each value in the drive's units: SI over the unit, rounded.
+    let unsigned = |key: &str, value: f64, unit: f64| {
+        let raw = (value / unit).round();
+        if (0.0..=f64::from(u32::MAX)).contains(&raw) {
+            Ok(raw as u32)
+        } else {
+            Err(out_of_range(key, value))
+        }
+    };
+    let speed_switch = unsigned("speed_switch_m_per_s", h.speed_switch_m_per_s, velocity)?;
+    let speed_zero = unsigned("speed_zero_m_per_s", h.speed_zero_m_per_s, velocity)?;
+    let acceleration = unsigned(
+        "acceleration_m_per_s2",
+        h.acceleration_m_per_s2,
+        acceleration,
+    )?;
+    let offset = (h.offset_m / d.position_m_per_inc).round();
+    if !(f64::from(i32::MIN)..=f64::from(i32::MAX)).contains(&offset) {
+        return Err(out_of_range("offset_m", h.offset_m));
+    }
+    let method = h.method as i8;
+    let writes: [HomingWrite; 5] = [
+        (
+            cia402::HOMING_METHOD,
+            0,
+            method.to_le_bytes().to_vec(),
+            method as u8 as u32,
+            0xFF,
+            "homing method",
+        ),
+        (
+            cia402::HOMING_SPEEDS,
+            1,
+            speed_switch.to_le_bytes().to_vec(),
+            speed_switch,
+            u32::MAX,
+            "homing speed during search for switch",
+        ),
+        (
+            cia402::HOMING_SPEEDS,
+            2,
+            speed_zero.to_le_bytes().to_vec(),
+            speed_zero,
+            u32::MAX,
+            "homing speed during search for zero",
+        ),
+        (
+            cia402::HOMING_ACCELERATION,
+            0,
+            acceleration.to_le_bytes().to_vec(),
+            acceleration,
+            u32::MAX,
+            "homing acceleration",
+        ),
+        (
+            cia402::HOME_OFFSET,
+            0,
+            (offset as i32).to_le_bytes().to_vec(),
+            offset as i32 as u32,
+            u32::MAX,
+            "home offset",
+        ),
+    ];
+    for (index, sub, bytes, expected, mask, what) in writes {
+        let id = ObjectId::new(index, sub);
+        s.write(id, &bytes, what)?;
+        s.check(id, what, expected, mask)?;
+    }
+    Ok(())
+}
+
 /// Set up the standard node of `axis` on `bus` (see the module documentation).
 pub fn configure(bus: &mut dyn Bus, axis: &AxisConfig) -> Result<NodeLayout, SetupError> {
     let (profile, timeout_s) = match axis.profile {
@@ -342,7 +429,11 @@ pub fn configure(bus: &mut dyn Bus, axis: &AxisConfig) -> Result<NodeLayout, Set
     let mut rated_torque_nm = 0.0;
     let mut error_code = 0;
     if let (ProfileKind::Cia402, Some(d)) = (axis.profile, &axis.cia402) {
-        let mode = drive_mode(axis.command).map_or(0, |m| m.code());
+        let mut mode = drive_mode(axis.command).map_or(0, |m| m.code());
+        if let Some(h) = &d.homing {
+            write_homing(&mut s, d, h)?;
+            mode = cia402::Mode::Homing.code();
+        }
         s.write(
             ObjectId::new(cia402::MODES_OF_OPERATION, 0),
             &mode.to_le_bytes(),

@@ -46,6 +46,8 @@ pub fn command_of(r: &CycleRecord, command: CommandKind) -> f64 {
         CommandKind::Duty => r.command_duty,
         CommandKind::Torque => r.command_torque,
         CommandKind::Velocity => r.command_velocity,
+        // The target position sent: the reference plus the controller's correction.
+        CommandKind::Position => r.reference_position,
     }
 }
 

@@ -563,3 +563,110 @@ fn a_drive_already_in_fault_at_start_up_is_named_by_its_error_code() {
     assert_eq!(e.error_code, 0x7305, "{emcys:?}");
     assert!(e.flags.contains(FaultKind::NodeState));
 }
+
+/// `config/cia402_csp_homing.toml` against the simulated drive: homing (method 17 on its
+/// negative limit switch, 1 mm home offset) before any motion, then CSP: every target position
+/// the daemon sent is judged against the position the drive answers, counted in cycles.
+#[test]
+fn a_cia402_drive_is_homed_then_follows_the_target_positions_in_csp() {
+    let config = Config::load(&root().join("config/cia402_csp_homing.toml")).expect("config");
+    let node = sim(
+        Profile::Cia402,
+        "config/plants/linear_axis_drive.toml",
+        vec![],
+        config.cycle.period_s,
+    );
+    let mut rig = Rig::new(&config, node).expect("the drive takes its mapping and homing");
+    rig.run(6.0);
+    let link = rig.controller.profile_link(0).expect("link");
+    assert_eq!(link.homed(), Some(true), "{:?}", link.homing_failure());
+    // The home point is the switch's edge; it reads -1 mm.
+    let p = rig.sim.profile().expect("profile node");
+    let home = p.position_origin_m() - 0.001;
+    eprintln!("csp: home point at {:.4} mm of the travel", home * 1e3);
+    assert!((home + 0.025).abs() < 5e-6, "{home}");
+    // RPDO1: controlword, 607Ah, 6060h. The modes asked for: homing, then CSP, never back.
+    let rpdos: Vec<(u64, u16, i32, i8)> = rig
+        .sent
+        .iter()
+        .filter(|(_, f)| f.id() == 0x210)
+        .map(|(k, f)| {
+            let d = f.data();
+            (
+                *k,
+                u16::from_le_bytes([d[0], d[1]]),
+                i32::from_le_bytes([d[2], d[3], d[4], d[5]]),
+                d[6] as i8,
+            )
+        })
+        .collect();
+    let mut modes: Vec<i8> = rpdos.iter().map(|r| r.3).collect();
+    modes.dedup();
+    assert_eq!(modes, [6, 8], "homing, then CSP");
+    let started = rpdos
+        .iter()
+        .position(|r| r.1 & 0x10 != 0)
+        .expect("start bit");
+    let csp = rpdos.iter().position(|r| r.3 == 8).expect("CSP");
+    assert!(started < csp);
+    // Before CSP the target is where the axis stands: no step when the drive switches.
+    let records = &rig.records;
+    let moved = records
+        .iter()
+        .position(|r| (r.reference_position - r.position).abs() > 1e-9)
+        .expect("the axis moves at last");
+    assert!(
+        moved > csp,
+        "the axis moved at cycle {moved}, CSP from {csp}"
+    );
+    // Each target sent, against the position the drive answers one cycle later.
+    let mut worst: f64 = 0.0;
+    for (r, next) in rpdos.iter().zip(records.iter().skip(1)).skip(csp + 1) {
+        let target = f64::from(r.2) * 1e-6;
+        worst = worst.max((next.position - target).abs());
+    }
+    let last = records.last().expect("records");
+    eprintln!(
+        "csp: worst |position - target of the cycle before| {:.1} um; at 6 s {:.4} mm for -5 mm",
+        worst * 1e6,
+        last.position * 1e3
+    );
+    // The drive's band: 0.25 mm while the target ramps at 20 mm/s, 20 µm at rest.
+    assert!(worst < 250e-6, "{worst}");
+    assert!((last.position + 0.005).abs() < 20e-6, "{}", last.position);
+    assert!(rig.emcys().is_empty(), "{:?}", rig.emcys());
+}
+
+/// A homing that does not attain home in time is the axis' fault, with its own EMCY code, and
+/// the axis does not move.
+#[test]
+fn a_homing_timeout_is_the_axis_fault_and_the_axis_stays() {
+    let text = std::fs::read_to_string(root().join("config/cia402_csp_homing.toml"))
+        .expect("config")
+        .replace("timeout_s = 10.0", "timeout_s = 0.2");
+    let config = Config::from_toml(&text, Path::new("cia402_csp_homing.toml")).expect("config");
+    let node = sim(
+        Profile::Cia402,
+        "config/plants/linear_axis_drive.toml",
+        vec![],
+        config.cycle.period_s,
+    );
+    let mut rig = Rig::new(&config, node).expect("set up");
+    rig.run(1.0);
+    let link = rig.controller.profile_link(0).expect("link");
+    let failure = link.homing_failure().expect("homing failed");
+    assert!(failure.to_string().contains("timeout_s = 0.2"), "{failure}");
+    let emcys = rig.emcys();
+    assert!(
+        emcys
+            .iter()
+            .any(|(_, e)| e.error_code == actuatord::daemon::profile_homing::HOMING_FAILED),
+        "{emcys:?}"
+    );
+    // Never switched to CSP.
+    assert!(rig
+        .sent
+        .iter()
+        .filter(|(_, f)| f.id() == 0x210)
+        .all(|(_, f)| f.data()[6] == 6));
+}

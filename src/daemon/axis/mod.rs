@@ -230,6 +230,9 @@ pub struct Axis {
     node_was_operational: bool,
     /// The error code of a CiA 402 drive in fault: the node is out of operation.
     drive_fault: Option<u16>,
+    /// The node lets the axis move (a position drive is homed and in CSP); until then the
+    /// reference stays where the axis stands.
+    motion_enabled: bool,
     last_command: f64,
     /// An arrival relief went into the command since the set-point last changed: the
     /// estimation leaves the samples out until it changes again.
@@ -277,6 +280,7 @@ impl Axis {
             last_heartbeat_s: 0.0,
             node_state: None,
             drive_fault: None,
+            motion_enabled: true,
             node_was_operational: false,
             last_command: cfg.safe_command,
             relief_hold: false,
@@ -314,6 +318,11 @@ impl Axis {
 
     pub fn drive_fault(&self) -> Option<u16> {
         self.drive_fault
+    }
+
+    /// Whether the node lets the axis move this cycle (see [`Axis::step`]).
+    pub fn set_motion_enabled(&mut self, enabled: bool) {
+        self.motion_enabled = enabled;
     }
 
     /// A new cycle: the readings held so far are from before its SYNC.
@@ -451,10 +460,15 @@ impl Axis {
         } else {
             self.missing_cycles + 1
         };
-        // r(k) = r(k-1) + clamp(w - r(k-1), ±rate·T0): a ramp instead of a step, so a large step
-        // does not saturate the output and kick the derivative part the wrong way.
-        self.reference += (self.setpoint - self.reference)
-            .clamp(-self.reference_step_max, self.reference_step_max);
+        if self.motion_enabled {
+            // r(k) = r(k-1) + clamp(w - r(k-1), ±rate·T0): a ramp instead of a step, so a large
+            // step does not saturate the output and kick the derivative part the wrong way.
+            self.reference += (self.setpoint - self.reference)
+                .clamp(-self.reference_step_max, self.reference_step_max);
+        } else {
+            // Not yet allowed to move (homing): the ramp starts from where the axis stands.
+            self.reference = self.sensor.position;
+        }
         self.error = self.reference - self.sensor.position;
         self.supply_schedule.step(
             self.sensor.supply_voltage_v,
@@ -522,7 +536,21 @@ impl Axis {
         let e = self.error;
         let y = self.sensor.position;
         let mut arrival_relief = 0.0;
-        if self.supervision.fail_safe() {
+        if self.command_kind == CommandKind::Position {
+            // The drive closes the loop: its target is the reference, corrected by the
+            // controller's output; fail-safe or not yet free to move, where the axis stands.
+            self.last_command = if self.supervision.fail_safe() || !self.motion_enabled {
+                self.law.preset(0.0);
+                y
+            } else if self.fresh {
+                self.reference
+                    + self
+                        .law
+                        .command(e, y, 0.0, 0.0, self.supply_schedule.command_limit_factor())
+            } else {
+                self.last_command
+            };
+        } else if self.supervision.fail_safe() {
             self.last_command = self.safe_command;
             self.friction.idle();
         } else if self.fresh {

@@ -120,6 +120,9 @@ crate::declare_choice! {
         Torque = torque,
         /// Velocity in m/s (rad/s on a rotary axis): a CiA 402 drive's target velocity (CSV).
         Velocity = velocity,
+        /// Position in m (rad on a rotary axis): a CiA 402 drive's target position (CSP); the
+        /// drive closes the position loop, the controller's output is added as a correction.
+        Position = position,
     }
 }
 
@@ -131,6 +134,7 @@ impl CommandKind {
             CommandKind::Duty => 1,
             CommandKind::Torque => 2,
             CommandKind::Velocity => 3,
+            CommandKind::Position => 4,
         }
     }
 
@@ -150,6 +154,7 @@ impl CommandKind {
             CommandKind::Duty => "",
             CommandKind::Torque => "N m",
             CommandKind::Velocity => "m/s",
+            CommandKind::Position => "m",
         }
     }
 
@@ -160,6 +165,7 @@ impl CommandKind {
             CommandKind::Duty => "1/m",
             CommandKind::Torque => "N m/m",
             CommandKind::Velocity => "1/s",
+            CommandKind::Position => "m/m",
         }
     }
 
@@ -170,6 +176,7 @@ impl CommandKind {
             CommandKind::Duty => "N",
             CommandKind::Torque => "N/(N m)",
             CommandKind::Velocity => "N s/m",
+            CommandKind::Position => "N/m",
         }
     }
 }
