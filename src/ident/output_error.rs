@@ -190,6 +190,10 @@ pub struct Fit {
     pub std_errors: Vec<f64>,
     /// Parameters that ended on a bound.
     pub at_bound: Vec<bool>,
+    /// Gauss–Newton step from `theta` with the bounds lifted, `-(JᵀJ)⁺ Jᵀ r`: where the cost's
+    /// quadratic model has its minimum, so `theta + step` is what the data ask of a parameter
+    /// held at a bound (about zero for the others at convergence; NaN without a variance).
+    pub unbounded_step: Vec<f64>,
     /// Outer iterations.
     pub iterations: usize,
     /// Residual evaluations, Jacobians included.
@@ -489,6 +493,12 @@ where
         f64::NAN
     };
     let (covariance, std_errors) = covariance(&jac, residual_variance);
+    // -(JᵀJ)⁺ Jᵀ r = -(Cov / σ̂²) Jᵀ r.
+    let gradient = jac.transpose() * DVector::from_column_slice(&r);
+    let unbounded_step = (-(&covariance * gradient) / residual_variance)
+        .iter()
+        .copied()
+        .collect();
     let at_bound = theta
         .iter()
         .enumerate()
@@ -502,6 +512,7 @@ where
         covariance,
         std_errors,
         at_bound,
+        unbounded_step,
         iterations,
         evaluations: ev.count,
         termination,

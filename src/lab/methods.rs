@@ -105,6 +105,9 @@ pub struct FittedParameter {
     pub value: f64,
     /// 95 % confidence interval, where the method gives one.
     pub interval: Option<(f64, f64)>,
+    /// For a parameter held at its bound: the value the record asked for without the bound and
+    /// its 95 % interval, when the method knows it.
+    pub asked: Option<(f64, (f64, f64))>,
     /// What the fit did with it.
     pub status: Status,
 }
@@ -224,6 +227,27 @@ pub fn fit_model(
     }
 }
 
+/// Why a fit that held a parameter at its bound cannot be written, or `None`: the first
+/// parameter the fit held there, with what the record asked of it where that is known. A bound
+/// the record's own interval reaches is an estimate ([`Status::Estimated`]), not this.
+pub fn held_at_bound(parameters: &[FittedParameter]) -> Option<String> {
+    let p = parameters.iter().find(|p| p.status == Status::AtBound)?;
+    Some(match p.asked {
+        Some((v, (lo, hi))) => format!(
+            "{} is held at its bound {:.4e}: the record asks for {v:.4e} (95 % [{lo:.4e}, \
+             {hi:.4e}]), which it cannot be, so the model misses what acts there (`actuator \
+             diagnose` names candidates; to take the bound as yours, set it and list it in [lab] \
+             fixed)",
+            p.name, p.value
+        ),
+        None => format!(
+            "{} ended at its bound {:.4e}: the record does not determine it with this model (to \
+             take the bound as yours, set it and list it in [lab] fixed)",
+            p.name, p.value
+        ),
+    })
+}
+
 /// Parameters of a model as a balance fit left them.
 fn parameters_of(spec: &PlantSpec, fit: &IdFit) -> Vec<FittedParameter> {
     let params = spec.params();
@@ -233,17 +257,30 @@ fn parameters_of(spec: &PlantSpec, fit: &IdFit) -> Vec<FittedParameter> {
             continue;
         };
         let v = fit.values[j];
-        let status = match fit.intervals[j] {
-            Some(_) => Status::Estimated,
-            None if !p.free => Status::Fixed,
-            None if v <= p.def.min || v >= p.def.max => Status::AtBound,
-            None => Status::Kept,
+        let asked = fit.asked.get(j).copied().flatten();
+        // An interval is the admissible part of the record's: a friction level cannot be
+        // negative whatever its spread.
+        let admissible = |(lo, hi): (f64, f64)| (lo.max(p.def.min), hi.min(p.def.max));
+        let (status, interval) = match (fit.intervals[j], asked) {
+            (Some(i), _) => (Status::Estimated, Some(admissible(i))),
+            // Pinned at a bound the record's own interval reaches: the bound is a value the
+            // data allow (a Coulomb level of 0 where no dry friction shows), an estimate.
+            (None, Some((_, (lo, hi)))) if lo <= v && v <= hi => {
+                (Status::Estimated, Some(admissible((lo, hi))))
+            }
+            // The record asks for a value beyond what the parameter can be: the model misses
+            // what acts there, a failure to report.
+            (None, Some(_)) => (Status::AtBound, None),
+            (None, None) if !p.free => (Status::Fixed, None),
+            (None, None) if v <= p.def.min || v >= p.def.max => (Status::AtBound, None),
+            (None, None) => (Status::Kept, None),
         };
         out.push(FittedParameter {
             name: name.clone(),
             value: v,
-            interval: fit.intervals[j],
+            interval,
             status,
+            asked: (status == Status::AtBound).then_some(asked).flatten(),
         });
     }
     for (name, v) in &fit.nonlinear {
@@ -257,6 +294,7 @@ fn parameters_of(spec: &PlantSpec, fit: &IdFit) -> Vec<FittedParameter> {
                     .find(|(n, _)| n == name)
                     .map(|(_, i)| *i),
                 status: Status::Grid,
+                asked: None,
             });
         }
     }
@@ -590,17 +628,40 @@ fn output_error(
         let v = fit.theta[j];
         let (lo, hi) = ci[j];
         let half = 0.5 * (hi - lo) * widen;
-        let status = if fit.at_bound[j] {
-            Status::AtBound
+        let (min, max) = (bounds.lower()[j], bounds.upper()[j]);
+        // Held at a bound: what the record asks (the cost's minimum with the bound lifted) and
+        // its interval decide, as for the least squares: a bound inside that interval is an
+        // estimate, one outside it the model failing there.
+        let asked = v + fit.unbounded_step[j];
+        let (status, interval, asked) = if !half.is_finite() {
+            let status = if fit.at_bound[j] {
+                Status::AtBound
+            } else {
+                Status::Estimated
+            };
+            (status, None, None)
+        } else if !fit.at_bound[j] || (asked - v).abs() <= half {
+            let (a, b) = if fit.at_bound[j] {
+                (asked - half, asked + half)
+            } else {
+                (v - half, v + half)
+            };
+            (Status::Estimated, Some((a.max(min), b.min(max))), None)
         } else {
-            Status::Estimated
+            (
+                Status::AtBound,
+                None,
+                asked
+                    .is_finite()
+                    .then_some((asked, (asked - half, asked + half))),
+            )
         };
         parameters.push(FittedParameter {
             name: name.clone(),
             value: v,
-            interval: (status == Status::Estimated && half.is_finite())
-                .then_some((v - half, v + half)),
+            interval,
             status,
+            asked,
         });
     }
     let id_fitted = {
@@ -627,6 +688,110 @@ fn output_error(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lab::signals::prepare;
+    use crate::lab::Dataset;
+
+    /// 20 s at 1 kHz of a 2 kg carriage under two sines of force, its friction `drag(v)`,
+    /// integrated here (semi-implicit Euler at 0.1 ms), position read to 1 µm.
+    fn carriage(drag: &dyn Fn(f64) -> f64) -> Dataset {
+        let (mass, dt, sub) = (2.0, 1e-3, 10);
+        let (mut x, mut v) = (0.0f64, 0.0f64);
+        let mut d = Dataset {
+            origin: "carriage".into(),
+            time: vec![],
+            input: vec![],
+            output: vec![],
+            supply: None,
+            current: None,
+        };
+        for k in 0..20_000 {
+            let t = k as f64 * dt;
+            let u = 60.0 * (std::f64::consts::TAU * 0.7 * t).sin()
+                + 25.0 * (std::f64::consts::TAU * 2.3 * t).sin();
+            d.time.push(t);
+            d.input.push(u);
+            d.output.push((x * 1e6).round() * 1e-6);
+            for _ in 0..sub {
+                // m v' = u - F(v)
+                v += dt / sub as f64 * (u - drag(v)) / mass;
+                x += dt / sub as f64 * v;
+            }
+        }
+        d
+    }
+
+    fn fit_friction(d: &Dataset) -> MethodFit {
+        let mut model =
+            Model::from_names("linear_axis", &["viscous,coulomb".into()]).expect("model");
+        model
+            .spec
+            .set_command(crate::physics::CommandUnit::Newton)
+            .expect("force");
+        let prep = prepare(d, None);
+        fit_model(&model, d, &prep, &FitOptions::default(), &|_, _| {}).expect("fits")
+    }
+
+    fn parameter<'a>(f: &'a MethodFit, name: &str) -> &'a FittedParameter {
+        f.parameters
+            .iter()
+            .find(|p| p.name == name)
+            .unwrap_or_else(|| panic!("{name} in {:?}", f.parameters))
+    }
+
+    #[test]
+    fn a_coulomb_level_the_record_puts_at_zero_is_an_estimate_at_its_bound() {
+        // Viscous friction only: the record allows no dry friction, and the fit says so with an
+        // interval, never a failure.
+        let f = fit_friction(&carriage(&|v| 40.0 * v));
+        assert_eq!(held_at_bound(&f.parameters), None, "{:?}", f.parameters);
+        for dir in ["pos", "neg"] {
+            let p = parameter(&f, &format!("coulomb.coulomb_{dir}_n"));
+            let (lo, hi) = p.interval.unwrap_or_else(|| panic!("{p:?}"));
+            assert_eq!(p.status, Status::Estimated, "{p:?}");
+            assert!(
+                lo >= 0.0 && lo <= p.value && p.value <= hi && hi < 1.0,
+                "{p:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_coulomb_level_the_record_asks_below_zero_is_a_failure_naming_what_it_asked() {
+        // Fluid drag F = c₂ v |v|: the best line through it over the record's speeds crosses
+        // zero force above zero speed, so the record asks for a negative dry friction.
+        let d = carriage(&|v| 150.0 * v * v.abs());
+        let f = fit_friction(&d);
+        // The same least squares on the carriage's own speeds, without the lab: the line
+        // a + c v through c₂ v² over the moving samples, per direction.
+        let speeds: Vec<f64> = d
+            .output
+            .windows(3)
+            .map(|w| (w[2] - w[0]) / 2e-3)
+            .filter(|v| *v > 0.01)
+            .collect();
+        let n = speeds.len() as f64;
+        let (sv, svv) = (
+            speeds.iter().sum::<f64>(),
+            speeds.iter().map(|v| v * v).sum::<f64>(),
+        );
+        let sf: f64 = speeds.iter().map(|v| 150.0 * v * v).sum();
+        let svf: f64 = speeds.iter().map(|v| 150.0 * v * v * v).sum();
+        let intercept = (sf * svv - sv * svf) / (n * svv - sv * sv);
+        assert!(intercept < -0.5, "{intercept}");
+        let p = parameter(&f, "coulomb.coulomb_pos_n");
+        assert_eq!(p.status, Status::AtBound, "{:?}", f.parameters);
+        let (asked, (lo, hi)) = p.asked.unwrap_or_else(|| panic!("{p:?}"));
+        assert!(lo <= asked && asked <= hi && hi < 0.0, "{p:?}");
+        assert!(
+            (asked - intercept).abs() < 0.5 * intercept.abs(),
+            "asked {asked:.3} N, the line's own intercept {intercept:.3} N"
+        );
+        let why = held_at_bound(&f.parameters).expect("a failure");
+        assert!(
+            why.contains("coulomb.coulomb_") && why.contains("the record asks for -"),
+            "{why}"
+        );
+    }
 
     #[test]
     fn correlation_time_is_one_for_white_and_long_for_a_slow_residual() {

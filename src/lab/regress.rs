@@ -151,6 +151,9 @@ pub struct IdFit {
     /// 95 % intervals of the grid-searched parameters, from the profile of the residual over
     /// their grid ([`profile_interval`]); empty for a balance evaluated without a search.
     pub nonlinear_intervals: Vec<(String, (f64, f64))>,
+    /// Per coefficient the fit pinned at a bound: what the record asked of it before the pin,
+    /// its estimate and 95 % interval without the bound (`None` for the others).
+    pub asked: Vec<Option<(f64, (f64, f64))>>,
 }
 
 impl IdFit {
@@ -828,6 +831,7 @@ impl Balance {
             nrmse,
             nonlinear: self.nonlinear.clone(),
             nonlinear_intervals: Vec::new(),
+            asked: vec![None; self.terms.len()],
         }
     }
 
@@ -857,6 +861,7 @@ impl Balance {
         factor: Option<&ColumnFactor>,
     ) -> IdFit {
         let mut intervals = vec![None; self.terms.len()];
+        let mut asked = vec![None; self.terms.len()];
         // Every column, free or fixed, factored once: the target is a combination of the fixed
         // ones, so each pass below (a coefficient pinned at a bound, a collinear column fixed)
         // is a problem of the size of the balance, not of the record.
@@ -896,6 +901,7 @@ impl Balance {
                         intervals[j] = Some((v - half, v + half));
                         values[j] = v;
                         if v < lo || v > hi {
+                            asked[j] = Some((v, (v - half, v + half)));
                             values[j] = v.clamp(lo, hi);
                             free[j] = false;
                             intervals[j] = None;
@@ -951,7 +957,9 @@ impl Balance {
         } else {
             (extra, self.breakaway)
         };
-        self.finish(values, free, intervals, extra, index, breakaway)
+        let mut fit = self.finish(values, free, intervals, extra, index, breakaway);
+        fit.asked = asked;
+        fit
     }
 }
 

@@ -702,6 +702,17 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                     out.display()
                 );
             }
+            // A parameter held at its bound where the record asks for more is the model failing
+            // there, never a value to write.
+            if let Some(why) = actuatord::lab::methods::held_at_bound(&f.parameters) {
+                anyhow::bail!(
+                    "{}: {} on {}: {why}; {} not written",
+                    m.name,
+                    method.name(),
+                    d.origin,
+                    out.display()
+                );
+            }
             let fitted = Model {
                 name: out
                     .file_stem()
@@ -757,7 +768,8 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                     "inverse_dynamics": {"nrmse_before": f.inverse_dynamics.0, "nrmse": f.inverse_dynamics.1},
                     "parameters": f.parameters.iter().map(|p| serde_json::json!({
                         "name": p.name, "value": p.value, "status": p.status,
-                        "low": p.interval.map(|i| i.0), "high": p.interval.map(|i| i.1)})).collect::<Vec<_>>(),
+                        "low": p.interval.map(|i| i.0), "high": p.interval.map(|i| i.1),
+                        "asked": p.asked.map(|(v, (lo, hi))| serde_json::json!({"value": v, "low": lo, "high": hi}))})).collect::<Vec<_>>(),
                     "track": f.track,
                     "prediction": prediction.as_ref().ok(),
                     "note": f.note, "out": out.display().to_string()});
