@@ -8,6 +8,7 @@ use serde::Serialize;
 use super::collapse::{below_noise, collapsed};
 use super::data::Dataset;
 use super::diagnose::{diagnose, DiagnoseOptions};
+use super::methods::held_at_bound_in;
 use super::model::Model;
 use super::predict::Prediction;
 use super::regress::fit_spec;
@@ -36,6 +37,9 @@ pub struct Step {
     pub prediction: Option<Prediction>,
     /// The effect's signature in the residual before it was added.
     pub evidence: String,
+    /// A parameter this rung's fit held at a bound the record asks it to pass, and what was
+    /// asked ([`super::methods::held_at_bound`]).
+    pub held_at_bound: Option<String>,
     /// The model after this rung, fitted.
     #[serde(skip)]
     pub model: Model,
@@ -69,6 +73,9 @@ pub struct Discovery {
     /// ladder stops there rather than pick one by a hair ([`super::undecided`]).
     pub undecided: Vec<String>,
     pub separating_record: Option<String>,
+    /// Why the final model cannot be written: a parameter its fit held at a bound the record
+    /// asks it to pass ([`super::methods::held_at_bound`]).
+    pub held_at_bound: Option<String>,
 }
 
 /// Run the loop from `model`. `progress(step, effect)` is called as rungs are added.
@@ -107,9 +114,19 @@ pub fn discover(
         // The final figure is the last rung's (or the start's) own refit: the same number the
         // ladder shows.
         let finish = |steps: Vec<Step>, refused, converged| {
-            let (model, nrmse_final, prediction) = match steps.last() {
-                Some(s) => (s.model.clone(), s.nrmse, s.prediction),
-                None => (start.clone(), start_fit.nrmse, dg.base_prediction),
+            let (model, nrmse_final, prediction, held_at_bound) = match steps.last() {
+                Some(s) => (
+                    s.model.clone(),
+                    s.nrmse,
+                    s.prediction,
+                    s.held_at_bound.clone(),
+                ),
+                None => (
+                    start.clone(),
+                    start_fit.nrmse,
+                    dg.base_prediction,
+                    held_at_bound_in(&model.spec, &start_fit),
+                ),
             };
             Ok(Discovery {
                 start: start.clone(),
@@ -127,6 +144,7 @@ pub fn discover(
                 },
                 undecided: dg.undecided.clone(),
                 separating_record: dg.separating_record.clone(),
+                held_at_bound,
             })
         };
         let Some((effect, c)) = next.filter(|_| steps.len() < MAX_STEPS) else {
@@ -159,6 +177,7 @@ pub fn discover(
             delta_bic: c.delta_bic,
             prediction: c.prediction,
             evidence: c.evidence.clone(),
+            held_at_bound: held_at_bound_in(&with, &fit),
             model: Model {
                 name: format!("{}+{effect}", current.name),
                 spec,
@@ -209,6 +228,7 @@ impl Discovery {
             })),
             "refused": self.refused.as_ref().map(|(effect, why)| serde_json::json!({
                 "effect": effect, "why": why})),
+            "held_at_bound": self.held_at_bound,
         })
     }
 }

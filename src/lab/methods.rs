@@ -248,6 +248,12 @@ pub fn held_at_bound(parameters: &[FittedParameter]) -> Option<String> {
     })
 }
 
+/// [`held_at_bound`] of the parameters a balance fit of `spec` left (`spec` with the free flags
+/// it was fitted with).
+pub fn held_at_bound_in(spec: &PlantSpec, fit: &IdFit) -> Option<String> {
+    held_at_bound(&parameters_of(spec, fit))
+}
+
 /// Parameters of a model as a balance fit left them.
 fn parameters_of(spec: &PlantSpec, fit: &IdFit) -> Vec<FittedParameter> {
     let params = spec.params();

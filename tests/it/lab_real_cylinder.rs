@@ -267,3 +267,42 @@ fn the_three_pressures_together_name_the_friction_that_follows_the_supply() {
         assert!(every.contains(&effect), "{effect} not in {every:?}: {d:#}");
     }
 }
+
+/// `discover` holds its final model to the rule `fit` follows: the 7 bar record's negative strokes
+/// ask for a Coulomb level below zero, so the ladder is shown and the model is not written.
+#[test]
+fn discover_does_not_write_a_model_the_record_pushes_past_a_bound() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    std::fs::write(
+        dir.path().join("friction.toml"),
+        format!("{FRICTION}\n[lab]\nfixed = [\"linear_axis.mass_kg\"]\n"),
+    )
+    .expect("model");
+    let data = record(7);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .args([
+            "discover",
+            "--json",
+            "--data",
+            data.to_str().expect("UTF-8 path"),
+            "--model",
+            "friction.toml",
+            "--out",
+            "found.toml",
+        ])
+        .current_dir(dir.path())
+        .output()
+        .expect("actuator runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(!dir.path().join("found.toml").exists());
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).expect("the ladder as JSON");
+    let why = j["held_at_bound"]
+        .as_str()
+        .unwrap_or_else(|| panic!("{j:#}"));
+    assert!(
+        why.contains("coulomb.coulomb_neg_n is held at its bound") && err.contains("not written"),
+        "{why} / {err}"
+    );
+    assert!(j["out"].is_null(), "{j:#}");
+}

@@ -556,6 +556,18 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                     eprintln!("step {step}: adding {effect}, refitting");
                 }
             })?;
+            // A final model with a parameter held where the record asks it to pass a bound is
+            // the model failing there: the ladder is shown, the model is not written.
+            let unwritten = match (&out, &found.held_at_bound) {
+                (Some(path), Some(why)) => Some(format!(
+                    "{}: the final model's fit on {}: {why}; {} not written",
+                    m.name,
+                    d.origin,
+                    path.display()
+                )),
+                _ => None,
+            };
+            let out = out.filter(|_| unwritten.is_none());
             if let Some(path) = &out {
                 let text = format!(
                     "# Found by `actuator discover` on {} from {} (diagnosis NRMSE {:.4} -> {:.4}{})\n{}",
@@ -586,7 +598,7 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                     j["per_record"] = story.to_json();
                 }
                 println!("{}", serde_json::to_string_pretty(&j)?);
-                return Ok(());
+                return unwritten.map_or(Ok(()), |why| Err(anyhow::anyhow!(why)));
             }
             println!(
                 "model {} on {}: NRMSE {:.4} (free parameters refitted; the diagnosis criterion, rest and motion)",
@@ -656,7 +668,7 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             if let Some(path) = &out {
                 println!("wrote {}", path.display());
             }
-            Ok(())
+            unwritten.map_or(Ok(()), |why| Err(anyhow::anyhow!(why)))
         }
         LabCommand::Fit {
             data,
