@@ -121,6 +121,10 @@ pub struct Diagnosis {
     pub base_prediction: Option<Prediction>,
     /// Effects the family allows but the regression cannot see, or that the model lacks data for.
     pub not_assessed: Vec<String>,
+    /// Candidates that pass every test on the whole record (F test, BIC, the drop) but not on
+    /// its held-out part or in the motion they predict there: what the record suggests without
+    /// confirming it, the best first.
+    pub unconfirmed: Vec<String>,
 }
 
 /// The signature of an addition in the residual of the base: an effect's, or what a declared
@@ -431,6 +435,17 @@ pub fn diagnose(
     };
     let separating_record =
         (!undecided.is_empty()).then(|| undecided::separating_record(&undecided));
+    let unconfirmed = candidates
+        .iter()
+        .filter(|c| {
+            !c.significant
+                && !c.evidence.starts_with("refused")
+                && c.p_value < opts.alpha
+                && c.delta_bic < 0.0
+                && c.improvement >= opts.min_improvement
+        })
+        .map(|c| c.effect.clone())
+        .collect();
     let verdict = chosen
         .filter(|_| !unexplained && undecided.is_empty())
         .map(|c| c.effect.clone());
@@ -448,6 +463,7 @@ pub fn diagnose(
         effective_samples: n_eff,
         base_prediction,
         not_assessed,
+        unconfirmed,
     })
 }
 
@@ -679,6 +695,7 @@ impl Diagnosis {
             "effective_samples": self.effective_samples,
             "base_prediction": self.base_prediction,
             "not_assessed": self.not_assessed,
+            "unconfirmed": self.unconfirmed,
         })
     }
 }

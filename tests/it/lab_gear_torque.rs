@@ -119,6 +119,10 @@ fn a_torque_commanded_gear_fits_once_its_command_is_named() {
 }
 
 fn verdict(hidden: Option<GearHidden>, seed: u64) -> Option<String> {
+    diagnosed(hidden, seed).verdict
+}
+
+fn diagnosed(hidden: Option<GearHidden>, seed: u64) -> actuatord::lab::diagnose::Diagnosis {
     let gear = Gear::draw(hidden, seed);
     let mut data = gear.simulate(seed, LENGTH_S);
     let with: Vec<&str> = gear
@@ -155,7 +159,39 @@ fn verdict(hidden: Option<GearHidden>, seed: u64) -> Option<String> {
         dg.nrmse_base,
         dg.verdict.as_deref().unwrap_or("none")
     );
-    dg.verdict
+    if !dg.unconfirmed.is_empty() {
+        eprintln!("  unconfirmed: {:?}", dg.unconfirmed);
+    }
+    dg
+}
+
+/// Where the record does not confirm the play (seeds 2 and 3: it cuts the error by 22 % and
+/// 15 % on the whole record, and leaves the held-out part 37 % and 45 % worse), the diagnosis
+/// says so rather than a bare `none`: the play is named or reported as suggested and not
+/// confirmed. A complete model is never told of an effect it does not miss.
+#[test]
+fn a_play_the_record_does_not_confirm_is_reported_as_suggested() {
+    for seed in [2, 3] {
+        let dg = diagnosed(Some(GearHidden::Backlash), seed);
+        let named = dg.verdict.as_deref() == Some("backlash");
+        let suggested =
+            dg.verdict.is_none() && dg.unconfirmed.first().map(String::as_str) == Some("backlash");
+        assert!(
+            named || suggested,
+            "seed {seed}: verdict {:?}, unconfirmed {:?}",
+            dg.verdict,
+            dg.unconfirmed
+        );
+    }
+    for seed in [1, 2] {
+        let dg = diagnosed(None, seed);
+        assert_eq!(dg.verdict, None, "seed {seed}");
+        assert!(
+            dg.unconfirmed.is_empty(),
+            "seed {seed}: {:?}",
+            dg.unconfirmed
+        );
+    }
 }
 
 #[test]

@@ -530,7 +530,28 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                         dg.separating_record.as_deref().unwrap_or_default()
                     )
                 }
-                _ => println!("\nverdict: none — no candidate improves the fit significantly and the residual holds no structure"),
+                _ => match dg.candidates.iter().find(|c| dg.unconfirmed.contains(&c.effect)) {
+                    Some(c) => println!(
+                        "\nverdict: none confirmed — {} cuts the error by {:.0} % on the whole record (ΔBIC {:.1}) but \
+                         {}: the record suggests it without confirming it{}",
+                        c.effect,
+                        100.0 * c.improvement,
+                        c.delta_bic,
+                        match c.prediction_improvement {
+                            Some(p) if c.holdout_improvement > 0.0 => format!(
+                                "its prediction of the held-out motion errs {:.0} % more than the model's without it",
+                                -100.0 * p
+                            ),
+                            _ => format!("{:+.0} % on its held-out part", 100.0 * c.holdout_improvement),
+                        },
+                        if dg.unconfirmed.len() > 1 {
+                            format!(" (so do {})", dg.unconfirmed[1..].join(", "))
+                        } else {
+                            String::new()
+                        }
+                    ),
+                    None => println!("\nverdict: none — no candidate improves the fit significantly and the residual holds no structure"),
+                },
             }
             if let Some(story) = &story {
                 println!("\nThe verdict above is the records' taken together.");
