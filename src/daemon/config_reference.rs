@@ -14,7 +14,7 @@ use super::config::{
     SetpointStep, StateConfig,
 };
 use super::dictionary;
-use super::profile_config::{Cia401Section, Cia402Section};
+use super::profile_config::{Cia401Section, Cia402Section, HomingSection};
 use crate::canopen::od::{markdown_table, BuildError, Entry, ObjectDictionary};
 use crate::device::objects::MAX_AXES;
 use crate::param::{
@@ -123,6 +123,10 @@ fn sections() -> Vec<Section> {
         axis::<LimitsSection>(param_key!(AxisConfig, limits), |a| Some(&a.limits)),
         setpoints,
         axis::<Cia402Section>(param_key!(AxisConfig, cia402), |a| a.cia402.as_ref()),
+        // Its keys are restart-only: no dictionary entries to look up under this key.
+        axis::<HomingSection>("cia402.homing", |a| {
+            a.cia402.as_ref().and_then(|c| c.homing.as_ref())
+        }),
         axis::<Cia401Section>(param_key!(AxisConfig, cia401), |a| a.cia401.as_ref()),
     ]
 }

@@ -794,7 +794,10 @@ fn the_axis_own_keys_are_declared() {
         "{err}"
     );
     let spec = AxisConfig::spec("command").expect("declared");
-    assert_eq!(spec.choices, ["voltage", "duty", "torque", "velocity"]);
+    assert_eq!(
+        spec.choices,
+        ["voltage", "duty", "torque", "velocity", "position"]
+    );
     let a = &shipped().axis[0];
     assert!(a.start_node, "declared default");
     assert!(!a.present("setpoint_rate_max_m_per_s"));
