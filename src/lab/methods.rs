@@ -271,11 +271,15 @@ fn parameters_of(spec: &PlantSpec, fit: &IdFit) -> Vec<FittedParameter> {
             (Some(i), _) => (Status::Estimated, Some(admissible(i))),
             // Pinned at a bound the record's own interval reaches: the bound is a value the
             // data allow (a Coulomb level of 0 where no dry friction shows), an estimate.
-            (None, Some((_, (lo, hi)))) if lo <= v && v <= hi => {
-                (Status::Estimated, Some(admissible((lo, hi))))
+            (None, Some(a)) if a.interval.0 <= v && v <= a.interval.1 => {
+                (Status::Estimated, Some(admissible(a.interval)))
             }
-            // The record asks for a value beyond what the parameter can be: the model misses
-            // what acts there, a failure to report.
+            // Beyond the bound alone, but the fit with the bound is as good as the one without
+            // (the other coefficients make up for it: a Coulomb level trading with a spring's
+            // pretension): the record does not separate it from them, and the bound stands.
+            (None, Some(a)) if a.allowed => (Status::Kept, None),
+            // The record asks for a value beyond what the parameter can be, and the fit with
+            // the bound is worse beyond chance: the model misses what acts there, a failure.
             (None, Some(_)) => (Status::AtBound, None),
             (None, None) if !p.free => (Status::Fixed, None),
             (None, None) if v <= p.def.min || v >= p.def.max => (Status::AtBound, None),
@@ -286,7 +290,9 @@ fn parameters_of(spec: &PlantSpec, fit: &IdFit) -> Vec<FittedParameter> {
             value: v,
             interval,
             status,
-            asked: (status == Status::AtBound).then_some(asked).flatten(),
+            asked: asked
+                .filter(|_| status != Status::Estimated)
+                .map(|a| (a.value, a.interval)),
         });
     }
     for (name, v) in &fit.nonlinear {

@@ -151,9 +151,23 @@ pub struct IdFit {
     /// 95 % intervals of the grid-searched parameters, from the profile of the residual over
     /// their grid ([`profile_interval`]); empty for a balance evaluated without a search.
     pub nonlinear_intervals: Vec<(String, (f64, f64))>,
-    /// Per coefficient the fit pinned at a bound: what the record asked of it before the pin,
-    /// its estimate and 95 % interval without the bound (`None` for the others).
-    pub asked: Vec<Option<(f64, (f64, f64))>>,
+    /// Per coefficient the fit pinned at a bound: what the record asked of it before the pin
+    /// (`None` for the others).
+    pub asked: Vec<Option<Asked>>,
+}
+
+/// What a record asks of a coefficient that a bound holds back.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Asked {
+    /// Its estimate without the bound.
+    pub value: f64,
+    /// The 95 % interval of that estimate.
+    pub interval: (f64, f64),
+    /// True when the fit with the bound cannot be told from the fit without it: the
+    /// likelihood ratio of the two, `N_eff ln(RSS_bound / RSS_free)` on the moving samples,
+    /// stays below the χ² quantile of one parameter (the other coefficients make up for it, as
+    /// a spring's pretension does for a Coulomb level).
+    pub allowed: bool,
 }
 
 impl IdFit {
@@ -861,7 +875,9 @@ impl Balance {
         factor: Option<&ColumnFactor>,
     ) -> IdFit {
         let mut intervals = vec![None; self.terms.len()];
-        let mut asked = vec![None; self.terms.len()];
+        let mut asked: Vec<Option<Asked>> = vec![None; self.terms.len()];
+        // The moving samples' residual of the first solve, before any bound was applied.
+        let mut free_rss: Option<f64> = None;
         // Every column, free or fixed, factored once: the target is a combination of the fixed
         // ones, so each pass below (a coefficient pinned at a bound, a collinear column fixed)
         // is a problem of the size of the balance, not of the record.
@@ -891,6 +907,7 @@ impl Balance {
             });
             match least_squares_rotated(&a, &b, index.len(), &LsOptions::default()) {
                 Ok(ls) => {
+                    free_rss.get_or_insert(ls.rss);
                     let widen = (1.0 / n_eff_per_sample.clamp(1e-6, 1.0)).sqrt();
                     let ci = ls.confidence_intervals(0.95);
                     let mut pinned = false;
@@ -901,7 +918,11 @@ impl Balance {
                         intervals[j] = Some((v - half, v + half));
                         values[j] = v;
                         if v < lo || v > hi {
-                            asked[j] = Some((v, (v - half, v + half)));
+                            asked[j] = Some(Asked {
+                                value: v,
+                                interval: (v - half, v + half),
+                                allowed: false,
+                            });
                             values[j] = v.clamp(lo, hi);
                             free[j] = false;
                             intervals[j] = None;
@@ -958,6 +979,13 @@ impl Balance {
             (extra, self.breakaway)
         };
         let mut fit = self.finish(values, free, intervals, extra, index, breakaway);
+        let bound_rss: f64 = fit.residual.iter().map(|r| r * r).sum();
+        let n_eff = index.len() as f64 * n_eff_per_sample.clamp(1e-6, 1.0);
+        let allowed =
+            free_rss.is_some_and(|f| f > 0.0 && n_eff * (bound_rss / f).ln() <= CHI2_1_95);
+        for a in asked.iter_mut().flatten() {
+            a.allowed = allowed;
+        }
         fit.asked = asked;
         fit
     }

@@ -59,9 +59,13 @@ struct Loop {
     accepted: bool,
 }
 
+/// The effects the user fits: the plant's own. (Without `stiction` on the linear axis, whose
+/// foreign plant holds at a breakaway above its Coulomb level, the negative Coulomb level of the
+/// fit is asked below zero, and `fit` refuses to write it.)
 fn with(family: Family) -> &'static str {
     match family {
         Family::MotorGear => "viscous,coulomb,payload,backlash",
+        Family::LinearAxis => "spring,viscous,coulomb,stiction",
         _ => "spring,viscous,coulomb",
     }
 }
@@ -92,9 +96,8 @@ fn user_loop(dir: &Path, family: Family, plant: &Path) -> Result<Loop, String> {
         lab_common::reported_rms(&stderr)
     };
     let before = sim(&config, "before.csv");
-    actuator(
-        dir,
-        &[
+    let fit = std::process::Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .args([
             "fit",
             "--data",
             "before.csv",
@@ -104,8 +107,20 @@ fn user_loop(dir: &Path, family: Family, plant: &Path) -> Result<Loop, String> {
             with(family),
             "--out",
             "fitted.toml",
-        ],
-    );
+        ])
+        .current_dir(dir)
+        .output()
+        .expect("actuator runs");
+    if !fit.status.success() {
+        // A fit that holds a parameter past its bound (the plant's Stribeck dip asks for a
+        // negative damping of a model without it) writes no model, and there is nothing to tune.
+        let stderr = String::from_utf8_lossy(&fit.stderr).to_string();
+        assert!(
+            stderr.contains("is held at its bound") && !dir.join("fitted.toml").exists(),
+            "fit failed otherwise: {stderr}"
+        );
+        return Err(format!("fit: {stderr}"));
+    }
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_actuator"))
         .args([
             "tune",

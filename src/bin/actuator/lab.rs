@@ -844,6 +844,12 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                     }
                     (Status::Estimated, None) => println!("  {name:<40} {v:>13.6e}"),
                     (Status::AtBound, _) => println!("  {name:<40} {v:>13.6e}  (at its bound)"),
+                    (Status::Kept, _) if p.asked.is_some() => {
+                        let (a, (lo, hi)) = p.asked.unwrap_or_default();
+                        println!(
+                            "  {name:<40} {v:>13.6e}  (held at its bound: the record asks for {a:.3e}, 95 % [{lo:.3e}, {hi:.3e}] with the others held, and the other terms make up for it)"
+                        )
+                    }
                     (Status::Kept, _) => println!(
                         "  {name:<40} {v:>13.6e}  (kept: not separable from the other terms on these data)"
                     ),
