@@ -945,3 +945,158 @@ fn the_daemon_homes_a_cia402_drive_and_runs_it_in_csp_on_vcan() {
         .collect();
     assert!(emcys.is_empty(), "{emcys:?}");
 }
+
+/// Stop (SIGSTOP) or continue (SIGCONT) a child without ending it.
+fn signal(p: &Proc, sig: libc::c_int) {
+    // SAFETY: plain kill(2) on a child we own.
+    let rc = unsafe { libc::kill(p.0.id() as libc::pid_t, sig) };
+    assert_eq!(rc, 0, "kill({}, {sig})", p.0.id());
+}
+
+/// The daemon hangs (`kill -STOP`): the simulated drive, watching the daemon's heartbeat with
+/// the consumer time the daemon gave it at start-up (1016h: 100 ms heartbeat + 50 ms margin),
+/// quick-stops as its 6007h says (3, quick stop) and sends EMCY 8130h. The SYNC producer is the
+/// daemon, which stops too, so the time is measured from the daemon's last heartbeat in the
+/// capture to the drive's EMCY, on the capture's kernel time stamps: never shorter than the
+/// consumer time (the drive hears each heartbeat after the capture does, so its own clock can
+/// only count more), and printed, not judged, above it. The drive's state is read over SDO,
+/// which it serves without SYNC. Then the daemon continues, and the drive announces its return.
+#[test]
+#[ignore = "needs vcan0, candump and cansend: run through scripts/vcan-run (scripts/test does)"]
+fn a_drive_quick_stops_when_the_daemon_hangs_on_vcan() {
+    /// `[node] heartbeat_period_s` of the configuration.
+    const HEARTBEAT_S: f64 = 0.1;
+    /// The margin this test configures.
+    const MARGIN_S: f64 = 0.05;
+    const PERIOD: f64 = 0.002;
+    let dir = tempfile::tempdir().expect("tempdir");
+    let config = config_in(
+        dir.path(),
+        "config/cia402_linear_axis.toml",
+        &[(
+            "heartbeat_period_s = 0.1\n",
+            "heartbeat_period_s = 0.1\nheartbeat_consumer_margin_s = 0.05\n",
+        )],
+    );
+    let capture_path = dir.path().join("capture.log");
+    let mut candump = candump_to(&capture_path);
+    let mut watch = CaptureWatch::new(&capture_path);
+    let mut sim = sim_node(&["--profile", "cia402", "--period-s", &PERIOD.to_string()]);
+    watch.wait_for_node(None, 16);
+    let mut d = daemon(&config, None);
+    // The drive in operation enabled, then 100 more periods of control.
+    watch.wait(
+        "the drive in operation enabled (0x27)",
+        |r: &[CandumpRecord]| {
+            let on = r
+                .iter()
+                .any(|rec| rec.frame.id() == 0x190 && le_u16(rec.frame.data()) & 0x6F == 0x27);
+            if on {
+                Ok(())
+            } else {
+                Err(format!("{} frames", r.len()))
+            }
+        },
+    );
+    let enabled = watch.syncs();
+    watch.wait_for_syncs(enabled + 100);
+    signal(&d, libc::SIGSTOP);
+    watch.wait_for_frame(None, 0x090, Some(0x30), "the drive's EMCY 8130h");
+    // The drive's state, over SDO: upload of 6041h.
+    cansend("610#4041600000000000");
+    let statusword = watch.wait(
+        "the drive's SDO answer with its statusword (6041h)",
+        |r: &[CandumpRecord]| {
+            r.iter()
+                .rev()
+                .find(|rec| {
+                    let d = rec.frame.data();
+                    rec.frame.id() == 0x590 && d.len() == 8 && d[1..4] == [0x41, 0x60, 0x00]
+                })
+                .map(|rec| le_u16(&rec.frame.data()[4..6]))
+                .ok_or_else(|| format!("{} frames", r.len()))
+        },
+    );
+    signal(&d, libc::SIGCONT);
+    // Back: the drive hears the daemon's heartbeat again and says so (EMCY 0000h).
+    watch.wait(
+        "the drive's EMCY 0000h once the daemon's heartbeat is back",
+        |r: &[CandumpRecord]| {
+            let lost = r
+                .iter()
+                .position(|rec| rec.frame.id() == 0x090 && le_u16(rec.frame.data()) == 0x8130);
+            let back = lost.is_some_and(|i| {
+                r[i..]
+                    .iter()
+                    .any(|rec| rec.frame.id() == 0x090 && le_u16(rec.frame.data()) == 0)
+            });
+            if back {
+                Ok(())
+            } else {
+                Err(format!("{} frames, EMCY 8130h at {lost:?}", r.len()))
+            }
+        },
+    );
+    interrupt(&mut d);
+    let status = d.0.wait().expect("actuatord ends");
+    interrupt(&mut sim);
+    let _ = sim.0.wait();
+    interrupt(&mut candump);
+    let _ = candump.0.wait();
+    assert!(status.success(), "actuatord exit status {status}");
+
+    let cap = Capture::read(&capture_path);
+    // Start-up: 1016h sub 1 = node 1, 150 ms, and 6007h = 3 (quick stop) written.
+    let writes: Vec<(u16, u8, u32)> = cap
+        .with_id(0x610)
+        .map(|(_, f)| f.data())
+        .filter(|d| d[0] & 0xE0 == 0x20)
+        .map(|d| (le_u16(&d[1..3]), d[3], le_i32(&d[4..8]) as u32))
+        .collect();
+    assert!(writes.contains(&(0x1016, 1, 0x0001_0096)), "{writes:x?}");
+    assert!(writes.contains(&(0x6007, 0, 3)), "{writes:x?}");
+    let (t_emcy, emcy) = cap
+        .with_id(0x090)
+        .find(|(_, f)| le_u16(f.data()) == 0x8130)
+        .map(|(t, f)| (*t, *f))
+        .expect("EMCY 8130h");
+    // The daemon's last heartbeat and SYNC before the EMCY: when it stopped.
+    let before = |id: u32| {
+        cap.frames
+            .iter()
+            .rev()
+            .filter(|(t, f)| f.id() == id && *t < t_emcy)
+            .map(|(t, _)| *t)
+            .next()
+    };
+    let t_heartbeat = before(0x701).expect("a heartbeat of the daemon before the EMCY");
+    let t_sync = before(SYNC).expect("a SYNC before the EMCY");
+    let syncs_after = cap
+        .frames
+        .iter()
+        .filter(|(t, f)| f.id() == SYNC && *t > t_emcy)
+        .count();
+    let silence_s = t_emcy - t_heartbeat;
+    eprintln!(
+        "vcan402 heartbeat: EMCY {:02x?} {:.1} ms after the daemon's last heartbeat ({:.1} \
+         SYNC periods; consumer time {:.0} ms), {:.1} ms after its last SYNC; statusword \
+         0x{statusword:04X} over SDO; {syncs_after} SYNCs after the EMCY (the daemon continued)",
+        emcy.data(),
+        silence_s * 1e3,
+        silence_s / PERIOD,
+        (HEARTBEAT_S + MARGIN_S) * 1e3,
+        (t_emcy - t_sync) * 1e3
+    );
+    // Generic and communication error in the register.
+    assert_eq!(emcy.data()[2], 0x11);
+    // Never before the consumer time (1 ms for the time stamps' rounding).
+    assert!(
+        silence_s >= HEARTBEAT_S + MARGIN_S - 1e-3,
+        "EMCY {silence_s} s after the last heartbeat"
+    );
+    // The SYNCs stopped with the daemon before the drive reacted, and resumed after.
+    assert!(t_sync < t_emcy);
+    assert!(syncs_after > 0);
+    // "Quick stop active" (CiA 402: xxxx xxxx x00x 0111): no SYNC came to end it meanwhile.
+    assert_eq!(statusword & 0x6F, 0x07, "statusword 0x{statusword:04X}");
+}

@@ -217,7 +217,7 @@ fn start_bus(
         if axis.profile == actuatord::daemon::profile_config::ProfileKind::Actuatord {
             continue;
         }
-        let layout = actuatord::daemon::profile_setup::configure(&mut bus, axis)?;
+        let layout = actuatord::daemon::profile_setup::configure(&mut bus, &config.node, axis)?;
         for pdo in layout.pdos.iter().filter(|p| p.enabled) {
             tracing::info!(
                 axis = %axis.name,

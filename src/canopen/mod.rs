@@ -8,6 +8,7 @@ pub mod eds;
 pub mod emcy;
 mod error;
 mod frame;
+pub mod heartbeat;
 pub mod nmt;
 pub mod od;
 pub mod sdo;

@@ -65,6 +65,14 @@ declare_section! {
             unit: "s", min: POSITIVE, max: FINITE, access: Restart, doc: "heartbeat period",
             words: "> 0", default: 0.1,
         },
+        /// What the standard nodes (CiA 402, CiA 401) allow on top of `heartbeat_period_s`
+        /// before they take the daemon for lost: their consumer heartbeat time 1016h is the
+        /// sum, written at start-up.
+        heartbeat_consumer_margin_s: f64 = {
+            unit: "s", min: 0.0, max: FINITE, access: Restart,
+            doc: "margin of the standard nodes' consumer heartbeat time 1016h over the heartbeat period",
+            words: ">= 0", default: 0.1,
+        },
         /// Period of the fault_state, tuned_parameters and loop_status frames.
         status_period_s: f64 = {
             unit: "s", min: POSITIVE, max: FINITE, access: Restart,

@@ -22,6 +22,35 @@ crate::declare_choice! {
     }
 }
 
+crate::declare_choice! {
+    /// What a CiA 402 drive does when it loses the daemon's heartbeat: its abort connection
+    /// option code 6007h (CiA 402 §6.3.1).
+    pub enum AbortConnectionOption {
+        /// 0: nothing; the drive runs on with its last target.
+        NoAction = no_action,
+        /// 1: a fault of the drive (fault reaction, then "fault"; a fault reset brings it back).
+        Fault = fault,
+        /// 2: the command "disable voltage": the power stage off at once, the axis coasts.
+        DisableVoltage = disable_voltage,
+        /// 3: the command "quick stop": the drive stops on its quick stop ramp, then as its
+        /// quick stop option code 605Ah says.
+        QuickStop = quick_stop,
+    }
+}
+
+impl AbortConnectionOption {
+    /// The value of 6007h.
+    pub fn code(self) -> i16 {
+        use crate::device::profile::cia402::abort_connection as c;
+        match self {
+            AbortConnectionOption::NoAction => c::NO_ACTION,
+            AbortConnectionOption::Fault => c::FAULT,
+            AbortConnectionOption::DisableVoltage => c::DISABLE_VOLTAGE,
+            AbortConnectionOption::QuickStop => c::QUICK_STOP,
+        }
+    }
+}
+
 crate::declare_section! {
     /// `[axis.cia402]`: the drive's units in SI.
     pub struct Cia402Section {
@@ -59,6 +88,11 @@ crate::declare_section! {
         acceleration_m_per_s2_per_unit: Option<f64> = {
             unit: "m/s²", min: f64::MIN_POSITIVE, max: f64::MAX, access: Restart,
             doc: "homing acceleration 609Ah per unit", words: "> 0",
+        },
+        /// What the drive does when the daemon's heartbeat stops (6007h, written at start-up).
+        abort_connection_option: AbortConnectionOption = {
+            unit: "", access: Restart, doc: "abort connection option code 6007h",
+            default: AbortConnectionOption::QuickStop,
         },
         /// Homing at start-up (`command = "position"`).
         homing: Option<HomingSection> = { unit: "", access: Restart, doc: "" },

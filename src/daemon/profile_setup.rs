@@ -1,13 +1,16 @@
 //! Start-up of a standard actuator node, before the cycle runs (it blocks on SDO answers, so
 //! never on the cycle thread): wait for the node, check its device type, put it in
 //! pre-operational, give it the PDO layout the axis needs over SDO and read every parameter
-//! back, or take the layout from the node's EDS and check the node has it; for a drive, set
-//! and check the mode of operation and read the rated torque.
+//! back, or take the layout from the node's EDS and check the node has it; give it the
+//! daemon's heartbeat to watch (1016h) and, for a drive, what to do when it stops (6007h);
+//! for a drive, set and check the mode of operation and read the rated torque.
 
 use super::config::AxisConfig;
+use super::node_sections::NodeConfig;
 use super::profile_config::{desired_pdos, drive_mode, Cia402Section, HomingSection, ProfileKind};
 use super::profile_link::NodeLayout;
 use crate::bus::{Bus, BusError, BusEvent};
+use crate::canopen::heartbeat::{encode_consumer_entry, CONSUMER_HEARTBEAT_TIME};
 use crate::canopen::od::ObjectId;
 use crate::canopen::sdo::{AbortCode, SdoClient, SdoError, SdoOutcome};
 use crate::canopen::NmtCommand;
@@ -377,8 +380,58 @@ fn write_homing(s: &mut Session, d: &Cia402Section, h: &HomingSection) -> Result
     Ok(())
 }
 
-/// Set up the standard node of `axis` on `bus` (see the module documentation).
-pub fn configure(bus: &mut dyn Bus, axis: &AxisConfig) -> Result<NodeLayout, SetupError> {
+/// The consumer heartbeat time a standard node watches the daemon with, ms: the daemon's
+/// heartbeat period plus the configured margin; an error names the keys when 1016h's 16 bits
+/// cannot hold it.
+pub fn consumer_heartbeat_ms(node: &NodeConfig) -> Result<u16, String> {
+    // t_consumer = T_heartbeat + margin, in 1016h's ms.
+    let ms = ((node.heartbeat_period_s + node.heartbeat_consumer_margin_s) * 1e3).round();
+    if (1.0..=f64::from(u16::MAX)).contains(&ms) {
+        Ok(ms as u16)
+    } else {
+        Err(format!(
+            "[{node_key}] {period} + {margin} = {ms} ms does not fit the consumer heartbeat \
+             time 1016h (1..=65535 ms)",
+            node_key = crate::param_key!(super::config::Config, node),
+            period = crate::param_key!(NodeConfig, heartbeat_period_s),
+            margin = crate::param_key!(NodeConfig, heartbeat_consumer_margin_s),
+        ))
+    }
+}
+
+/// The node watches the daemon's heartbeat (1016h sub 1, CiA 301) and a drive is told what to
+/// do when it stops (6007h, CiA 402); each written and read back.
+fn write_watchdogs(
+    s: &mut Session,
+    node: &NodeConfig,
+    axis: &AxisConfig,
+) -> Result<(), SetupError> {
+    let time_ms = consumer_heartbeat_ms(node).map_err(|reason| SetupError::Layout {
+        axis: s.axis.clone(),
+        reason,
+    })?;
+    let entry = encode_consumer_entry(node.node_id, time_ms);
+    let id = ObjectId::new(CONSUMER_HEARTBEAT_TIME, 1);
+    let what = "consumer heartbeat time of the daemon's heartbeat";
+    s.write(id, &entry.to_le_bytes(), what)?;
+    s.check(id, what, entry, u32::MAX)?;
+    if let (ProfileKind::Cia402, Some(d)) = (axis.profile, &axis.cia402) {
+        let code = d.abort_connection_option.code();
+        let id = ObjectId::new(cia402::ABORT_CONNECTION_OPTION, 0);
+        let what = "abort connection option code";
+        s.write(id, &code.to_le_bytes(), what)?;
+        s.check(id, what, code as u16 as u32, 0xFFFF)?;
+    }
+    Ok(())
+}
+
+/// Set up the standard node of `axis` on `bus`, whose master is the daemon's `node` (see the
+/// module documentation).
+pub fn configure(
+    bus: &mut dyn Bus,
+    node: &NodeConfig,
+    axis: &AxisConfig,
+) -> Result<NodeLayout, SetupError> {
     let (profile, timeout_s) = match axis.profile {
         ProfileKind::Actuatord => {
             return Ok(NodeLayout {
@@ -426,6 +479,7 @@ pub fn configure(bus: &mut dyn Bus, axis: &AxisConfig) -> Result<NodeLayout, Set
             s.check(id, &what(pdo, id), expected, mask)?;
         }
     }
+    write_watchdogs(&mut s, node, axis)?;
     let mut rated_torque_nm = 0.0;
     let mut error_code = 0;
     if let (ProfileKind::Cia402, Some(d)) = (axis.profile, &axis.cia402) {

@@ -3,7 +3,9 @@
 
 use super::profile::ProfileNode;
 use crate::bus::Frame;
-use crate::canopen::{decode_sync, encode_heartbeat, NmtCommand, NmtState};
+use crate::canopen::{
+    decode_heartbeat, decode_sync, encode_heartbeat, is_heartbeat, NmtCommand, NmtState,
+};
 use crate::device::{messages, CommandPdo, SensorPdo, SupplyPressurePdo};
 use crate::physics::{Family, Plant, ScheduledFault};
 
@@ -49,6 +51,9 @@ pub struct SimNode {
     counters: SimCounters,
     /// A standard profile instead of the actuatord frames.
     profile: Option<Box<ProfileNode>>,
+    /// The node's own clock (s since it started), as the runtime last gave it: what a
+    /// standard node's heartbeat consumer times the master with.
+    clock_s: f64,
 }
 
 impl SimNode {
@@ -71,6 +76,7 @@ impl SimNode {
             last_sync_counter: None,
             counters: SimCounters::default(),
             profile: None,
+            clock_s: 0.0,
         }
     }
 
@@ -113,6 +119,20 @@ impl SimNode {
 
     /// The identifiers this node takes from the bus (SYNC, NMT, its command): what a real
     /// node's CAN controller lets through its acceptance filter.
+    /// The node's clock moved on to `now_s` (s since it started; it runs without SYNC): a
+    /// standard node's heartbeat consumer looks at it.
+    pub fn poll(&mut self, now_s: f64, send: &mut dyn FnMut(&Frame)) {
+        self.clock_s = now_s;
+        if let Some(p) = self.profile.as_mut() {
+            p.poll(now_s, send);
+        }
+    }
+
+    /// When [`SimNode::poll`] must run next for a heartbeat consumer (node clock, s).
+    pub fn deadline_s(&self) -> Option<f64> {
+        self.profile.as_ref().and_then(|p| p.consumer_deadline_s())
+    }
+
     pub fn accepted_ids(&self) -> [u32; 3] {
         [
             messages::SYNC.cob_id(0),
@@ -153,6 +173,10 @@ impl SimNode {
                 }
                 Ok(_) => {}
                 Err(_) => self.malformed(frame, event),
+            }
+        } else if is_heartbeat(frame) {
+            if let (Some(p), Ok((node, _))) = (self.profile.as_mut(), decode_heartbeat(frame)) {
+                p.on_heartbeat(node, self.clock_s, send);
             }
         } else if let Some(p) = self.profile.as_mut() {
             if !p.handle(frame, self.state, send) {

@@ -82,7 +82,29 @@ pub fn run_sim_node(
         }
         let wake = next_heartbeat.min(now + poll);
         let wake = end.map_or(wake, |e| wake.min(e));
-        let event = match bus.recv_until(wake) {
+        // A heartbeat consumer's deadline: the node's clock runs on without SYNC.
+        let wake = node.deadline_s().map_or(wake, |d| {
+            wake.min(start + Duration::from_secs_f64(d.max(0.0)) + Duration::from_micros(100))
+        });
+        let event = bus.recv_until(wake);
+        let mut out = [None; 4];
+        let mut n = 0;
+        node.poll(start.elapsed().as_secs_f64(), &mut |f| {
+            if n < out.len() {
+                out[n] = Some(*f);
+                n += 1;
+            }
+        });
+        for f in out.iter().flatten() {
+            if let Err(e) = bus.send(f) {
+                match fail(e, on_event) {
+                    Some(l) => lost = Some(l),
+                    None => return Ok(()),
+                }
+                break;
+            }
+        }
+        let event = match event {
             Ok(e) => e,
             Err(e) => {
                 // Nobody left to talk to (the in-process bus of a finished run): a normal end.

@@ -72,6 +72,7 @@ impl Rig {
                 sim: &mut sim,
                 answers: VecDeque::new(),
             },
+            &config.node,
             &config.axis[0],
         )?;
         let mut controller = ControllerNode::new(config).expect("controller");
@@ -402,6 +403,7 @@ fn a_mapping_from_the_eds_is_checked_on_the_node() {
             sim: &mut configured,
             answers: VecDeque::new(),
         },
+        &drive_config().node,
         &drive_config().axis[0],
     )
     .expect("daemon's layout");
@@ -669,4 +671,90 @@ fn a_homing_timeout_is_the_axis_fault_and_the_axis_stays() {
         .iter()
         .filter(|(_, f)| f.id() == 0x210)
         .all(|(_, f)| f.data()[6] == 6));
+}
+
+/// At start-up each standard node gets the daemon's heartbeat to watch, 1016h sub 1 = the
+/// daemon's node-ID and its heartbeat period plus the margin (100 + 100 ms by default), and a
+/// drive its abort connection option 6007h (quick stop by default, fault as configured).
+#[test]
+fn each_standard_node_is_given_the_daemons_heartbeat_to_watch() {
+    use actuatord::canopen::od::ObjectId;
+    use actuatord::canopen::Value;
+    let value = |sim: &SimNode, index: u16, sub: u8| {
+        let od = sim.profile().expect("profile node").dictionary();
+        od.value(od.handle(ObjectId::new(index, sub)).expect("entry"))
+    };
+    let drive = Rig::new(
+        &drive_config(),
+        sim(
+            Profile::Cia402,
+            "config/plants/linear_axis_drive.toml",
+            vec![],
+            0.002,
+        ),
+    )
+    .expect("set up");
+    assert_eq!(value(&drive.sim, 0x1016, 1), Value::Unsigned32(0x0001_00C8));
+    assert_eq!(value(&drive.sim, 0x6007, 0), Value::Integer16(3));
+    let text = std::fs::read_to_string(root().join("config/cia402_linear_axis.toml"))
+        .expect("config")
+        .replace(
+            "heartbeat_period_s = 0.1\n",
+            "heartbeat_period_s = 0.1\nheartbeat_consumer_margin_s = 0.05\n",
+        )
+        .replace(
+            "[axis.cia402]\n",
+            "[axis.cia402]\nabort_connection_option = \"fault\"\n",
+        );
+    let config = Config::from_toml(&text, Path::new("cia402.toml")).expect("config");
+    let drive = Rig::new(
+        &config,
+        sim(
+            Profile::Cia402,
+            "config/plants/linear_axis_drive.toml",
+            vec![],
+            0.002,
+        ),
+    )
+    .expect("set up");
+    assert_eq!(value(&drive.sim, 0x1016, 1), Value::Unsigned32(0x0001_0096));
+    assert_eq!(value(&drive.sim, 0x6007, 0), Value::Integer16(1));
+    let config = Config::load(&root().join("config/cia401_solenoid.toml")).expect("config");
+    let module = Rig::new(
+        &config,
+        sim(
+            Profile::Cia401,
+            "config/plants/solenoid.toml",
+            vec![],
+            config.cycle.period_s,
+        ),
+    )
+    .expect("set up");
+    assert_eq!(
+        value(&module.sim, 0x1016, 1),
+        Value::Unsigned32(0x0001_00C8)
+    );
+    // A consumer time 1016h cannot hold is refused at start-up, naming the keys.
+    let text = std::fs::read_to_string(root().join("config/cia402_linear_axis.toml"))
+        .expect("config")
+        .replace("heartbeat_period_s = 0.1\n", "heartbeat_period_s = 70.0\n");
+    let config = Config::from_toml(&text, Path::new("cia402.toml")).expect("config");
+    let e = Rig::new(
+        &config,
+        sim(
+            Profile::Cia402,
+            "config/plants/linear_axis_drive.toml",
+            vec![],
+            0.002,
+        ),
+    )
+    .err()
+    .expect("refused");
+    assert!(
+        e.to_string().contains(
+            "[node] heartbeat_period_s + heartbeat_consumer_margin_s = 70100 ms does not fit \
+             the consumer heartbeat time 1016h (1..=65535 ms)"
+        ),
+        "{e}"
+    );
 }

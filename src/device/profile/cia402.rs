@@ -10,6 +10,9 @@ pub const CONTROLWORD: u16 = 0x6040;
 pub const STATUSWORD: u16 = 0x6041;
 /// Quick stop option code (INTEGER16).
 pub const QUICK_STOP_OPTION: u16 = 0x605A;
+/// Abort connection option code (INTEGER16, CiA 402 §6.3.1): what the drive does when its
+/// connection to the master is lost (a heartbeat event, bus-off): [`abort_connection`].
+pub const ABORT_CONNECTION_OPTION: u16 = 0x6007;
 /// Modes of operation (INTEGER8).
 pub const MODES_OF_OPERATION: u16 = 0x6060;
 /// Modes of operation display (INTEGER8).
@@ -116,6 +119,17 @@ pub mod status {
     pub const HOMING_ATTAINED: u16 = 1 << 12;
     /// Homing mode: homing error.
     pub const HOMING_ERROR: u16 = 1 << 13;
+}
+
+/// Values of the abort connection option code 6007h (CiA 402 §6.3.1).
+pub mod abort_connection {
+    pub const NO_ACTION: i16 = 0;
+    /// Fault signal: the drive goes to "fault reaction active", then "fault".
+    pub const FAULT: i16 = 1;
+    /// The device control command "disable voltage": the power stage off at once.
+    pub const DISABLE_VOLTAGE: i16 = 2;
+    /// The device control command "quick stop": stop on the quick stop ramp as 605Ah says.
+    pub const QUICK_STOP: i16 = 3;
 }
 
 /// Controlword bits (CiA 402 Table 4).

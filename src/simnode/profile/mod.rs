@@ -4,6 +4,7 @@
 //! standard's abort codes), and its PDOs carry whatever is mapped. Sans-I/O.
 
 use crate::bus::Frame;
+use crate::canopen::heartbeat::{HeartbeatConsumer, CONSUMER_HEARTBEAT_TIME};
 use crate::canopen::od::{EntrySpec, ObjectDictionary, ObjectId};
 use crate::canopen::sdo::{self, AbortCode, SdoServer};
 use crate::canopen::{DataType, EmcyFrame, NmtState, Value};
@@ -17,6 +18,7 @@ use std::str::FromStr;
 
 pub mod homing;
 use homing::{Homing, HomingParameters, HomingStatus};
+mod watchdog;
 
 /// Which standard the node speaks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -196,6 +198,19 @@ fn identity(
         )
 }
 
+/// The consumer heartbeat time 1016h with one entry, unused at power-on (CiA 301 §7.5.2.4).
+fn heartbeat_consumer(
+    b: crate::canopen::od::ObjectDictionaryBuilder,
+) -> crate::canopen::od::ObjectDictionaryBuilder {
+    b.array(
+        CONSUMER_HEARTBEAT_TIME,
+        "consumer_heartbeat_time",
+        None,
+        vec![EntrySpec::rw("consumer_heartbeat_time_1", 0u32)
+            .doc("producer node-ID (23..16), time in ms (15..0); 0: not watched")],
+    )
+}
+
 /// The drive's factory mapping: RPDO1 the controlword, TPDO1 the statusword (CiA 402
 /// §12.1.1's first PDOs), both event-driven; PDO 2 not used.
 fn drive_factory_pdos(node: u8) -> Vec<Pdo> {
@@ -271,7 +286,7 @@ pub fn dictionary(profile: Profile, node_id: u8) -> ObjectDictionary {
     let b = ObjectDictionary::builder();
     let b = match profile {
         Profile::Cia402 => {
-            let b = identity(b, cia402::DEVICE_TYPE, 402);
+            let b = heartbeat_consumer(identity(b, cia402::DEVICE_TYPE, 402));
             let b = pdo_objects(b, &drive_factory_pdos(node_id));
             b.var(cia402::ERROR_CODE, EntrySpec::ro("error_code", 0u16).pdo())
                 .var(
@@ -283,6 +298,12 @@ pub fn dictionary(profile: Profile, node_id: u8) -> ObjectDictionary {
                     cia402::QUICK_STOP_OPTION,
                     EntrySpec::rw("quick_stop_option_code", 2i16)
                         .range(Some(Value::Integer16(0)), Some(Value::Integer16(8))),
+                )
+                .var(
+                    cia402::ABORT_CONNECTION_OPTION,
+                    EntrySpec::rw("abort_connection_option_code", 1i16)
+                        .range(Some(Value::Integer16(0)), Some(Value::Integer16(3)))
+                        .doc("0 no action, 1 fault, 2 disable voltage, 3 quick stop"),
                 )
                 .var(
                     cia402::MODES_OF_OPERATION,
@@ -373,7 +394,7 @@ pub fn dictionary(profile: Profile, node_id: u8) -> ObjectDictionary {
                 )
         }
         Profile::Cia401 => {
-            let b = identity(b, cia401::DEVICE_TYPE, 401);
+            let b = heartbeat_consumer(identity(b, cia401::DEVICE_TYPE, 401));
             let b = pdo_objects(b, &io_factory_pdos(node_id));
             let ai = [
                 "analog_input_1",
@@ -468,6 +489,8 @@ pub struct ProfileNode {
     syncs: u64,
     /// EMCY frames the device wants to send (drive faults and their reset).
     pending_emcy: Option<Frame>,
+    /// The master's heartbeat as 1016h sub 1 asks for it watched.
+    consumer: Option<HeartbeatConsumer>,
 }
 
 impl ProfileNode {
@@ -492,6 +515,7 @@ impl ProfileNode {
             last_target_m: None,
             syncs: 0,
             pending_emcy: None,
+            consumer: None,
         };
         node.reset();
         node
@@ -535,6 +559,7 @@ impl ProfileNode {
         self.homing = Homing::new();
         self.position_origin_m = 0.0;
         self.last_target_m = None;
+        self.consumer = None;
         self.refresh_pdos();
         self.publish_status();
     }
@@ -786,6 +811,7 @@ impl ProfileNode {
                 let mode = self.f64_at(cia402::MODES_OF_OPERATION, 0);
                 self.set_f64(cia402::MODES_OF_OPERATION_DISPLAY, 0, mode);
             }
+            (_, CONSUMER_HEARTBEAT_TIME) => self.on_consumer_time_written(),
             (Profile::Cia402, cia402::QUICK_STOP_OPTION) => {
                 let option = self.f64_at(cia402::QUICK_STOP_OPTION, 0) as i16;
                 self.drive.set_quick_stop_option(option);
