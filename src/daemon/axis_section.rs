@@ -20,6 +20,7 @@ use crate::device::objects::{AxisKeys, SetpointKeys};
 use crate::param::{Kind, ParamError, ParamValue};
 use crate::supervise::{
     FaultReactionsSection, LimitsSection, ObserverSection, ParameterEstimationSection,
+    SetpointTimeoutSection,
 };
 
 /// A section of the axis, checked by its own declaration (with its keys' prefix) where the axis
@@ -53,6 +54,7 @@ table_value!(
     FaultReactionsSection,
     LearnedTableSection,
     LimitsSection,
+    SetpointTimeoutSection,
     Vec<SetpointStep>,
     Cia402Section,
     HomingSection,
@@ -111,6 +113,10 @@ declare_section! {
         /// `[axis.adaptive_friction]`).
         learned_table: Option<LearnedTableSection> = { unit: "", access: Restart, doc: "" },
         limits: LimitsSection = { unit: "", access: Restart, doc: "" },
+        /// The commander's set-points watched for their age, with a reaction when they stop.
+        setpoint_timeout: Option<SetpointTimeoutSection> = {
+            unit: "", access: Restart, doc: "",
+        },
         /// A setpoint schedule; setpoint frames on the bus override it until its next entry.
         setpoints: Vec<SetpointStep> = {
             unit: "", access: Restart, doc: "", default: Vec::new(),

@@ -372,6 +372,15 @@ impl Config {
             let l = &axis.limits;
             l.check()
                 .map_err(|e| bad(&at(&format!("{}.{}", axis_key!(limits), e.name)), e.reason))?;
+            if let Some(t) = &axis.setpoint_timeout {
+                let key = |name: &str| at(&format!("{}.{name}", axis_key!(setpoint_timeout)));
+                t.check().map_err(|e| bad(&key(e.name), e.reason))?;
+                t.check_reaction(
+                    l.position_min_m.unwrap_or(f64::NEG_INFINITY),
+                    l.position_max_m.unwrap_or(f64::INFINITY),
+                )
+                .map_err(|(name, rule)| bad(&key(name), rule))?;
+            }
             for (lo_key, lo, hi_key, hi) in [
                 (
                     param_key!(LimitsSection, position_min_m),

@@ -21,6 +21,7 @@ use crate::param::{
     Access, Declared, Kind, ParamSpec, COMMAND_PER_M_UNIT, COMMAND_UNIT, FORCE_PER_COMMAND_UNIT,
 };
 use crate::param_key;
+use crate::supervise::SetpointTimeoutSection;
 
 /// Whether key `name` of a section is given in a configuration: `None` when the section is not
 /// there at all.
@@ -121,6 +122,9 @@ fn sections() -> Vec<Section> {
             a.learned_table.as_ref()
         }),
         axis::<LimitsSection>(param_key!(AxisConfig, limits), |a| Some(&a.limits)),
+        axis::<SetpointTimeoutSection>(param_key!(AxisConfig, setpoint_timeout), |a| {
+            a.setpoint_timeout.as_ref()
+        }),
         setpoints,
         axis::<Cia402Section>(param_key!(AxisConfig, cia402), |a| a.cia402.as_ref()),
         // Its keys are restart-only: no dictionary entries to look up under this key.

@@ -20,7 +20,7 @@ use crate::device::{
     messages, CommandPdo, Emcy, FaultResetPdo, LoopStatusPdo, SensorPdo, SetpointPdo,
     SupplyPressurePdo,
 };
-use crate::supervise::{FaultKind, FaultState};
+use crate::supervise::{FaultKind, FaultState, SetpointSourceEvent};
 use hdrhistogram::Histogram;
 use std::sync::mpsc::{SyncSender, TrySendError};
 
@@ -467,7 +467,7 @@ impl ControllerNode {
             match SetpointPdo::decode(frame) {
                 Ok(sp) => {
                     if let Some(axis) = self.axis_mut(sp.axis_node_id) {
-                        axis.set_setpoint(sp.position);
+                        axis.on_commanded_setpoint(sp.position, now_s);
                     }
                 }
                 Err(e) => malformed(self, e),
@@ -728,6 +728,30 @@ impl ControllerNode {
                     fault,
                     confidence: step.model.confidence,
                     state: step.supervision.state,
+                    cycle,
+                }));
+            }
+            if let Some(event) = step.setpoint_source {
+                let emcy = match event {
+                    SetpointSourceEvent::Lost => {
+                        step.emcy(Emcy::setpoint_timeout(node, step.supervision.latched))
+                    }
+                    // Back: "error reset", with what is still active (CiA 301).
+                    SetpointSourceEvent::Back => {
+                        let (limits, model) =
+                            (step.supervision.latched, step.model.machine.latched);
+                        if limits.is_empty() && model.is_empty() {
+                            Emcy::reset(node)
+                        } else {
+                            step.emcy(Emcy::reset_leaving(node, limits, !model.is_empty()))
+                        }
+                    }
+                };
+                send(&emcy.encode(self.node_id));
+                record(Record::Event(Event::SetpointSource {
+                    t_s: now_s,
+                    axis_node_id: node,
+                    lost: event == SetpointSourceEvent::Lost,
                     cycle,
                 }));
             }
@@ -1012,7 +1036,7 @@ impl ControllerNode {
         match effect {
             WriteEffect::Setpoint { axis, position } => {
                 if let Some(slot) = self.slots.get_mut(axis) {
-                    slot.axis.set_setpoint(position);
+                    slot.axis.on_commanded_setpoint(position, now_s);
                 }
             }
             WriteEffect::FaultReset { axis } => {

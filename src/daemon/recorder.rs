@@ -308,7 +308,8 @@ fn log_event(e: &Event) {
         | Event::Diagnosed { .. }
         | Event::Overrun { .. }
         | Event::BusError { .. }
-        | Event::BusRestored { .. } => {
+        | Event::BusRestored { .. }
+        | Event::SetpointSource { .. } => {
             tracing::warn!(kind = e.kind(), "{e}")
         }
         Event::BusFault { .. } => tracing::error!(kind = e.kind(), "{e}"),

@@ -10,6 +10,8 @@ use crate::supervise::{FaultFlags, FaultKind, FaultState, SupervisedFault, Super
 
 /// CiA 301 "error reset or no error".
 pub const ERROR_RESET: u16 = 0x0000;
+/// RPDO timeout (CiA 301 Table 21): no set-point from the commander within its timeout.
+pub const SETPOINT_TIMEOUT: u16 = 0x8250;
 
 /// The error code announced for a fault (CiA 301 / CiA 402 code ranges).
 pub fn error_code(kind: FaultKind) -> u16 {
@@ -144,6 +146,19 @@ impl Emcy {
         Self {
             error_code: ERROR_RESET,
             error_register: error_register(flags) | if supervised { 0x81 } else { 0 },
+            axis_node_id,
+            flags,
+            ..Default::default()
+        }
+    }
+
+    /// The EMCY for an axis whose commander went quiet (`[axis.setpoint_timeout]`): CiA 301's
+    /// "RPDO timeout" (the set-point frame is the controller's RPDO1), in the communication bit
+    /// of the error register, with the faults active besides.
+    pub fn setpoint_timeout(axis_node_id: u8, flags: FaultFlags) -> Self {
+        Self {
+            error_code: SETPOINT_TIMEOUT,
+            error_register: error_register(flags) | 0x11,
             axis_node_id,
             flags,
             ..Default::default()

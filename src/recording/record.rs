@@ -131,6 +131,14 @@ pub enum Event {
         outage_s: f64,
         cycles_lost: u64,
     },
+    /// The commander of an axis went quiet beyond `[axis.setpoint_timeout] timeout_s` (`lost`),
+    /// or sent a set-point again.
+    SetpointSource {
+        t_s: f64,
+        axis_node_id: u8,
+        lost: bool,
+        cycle: u64,
+    },
     NodeState {
         t_s: f64,
         node_id: u8,
@@ -238,6 +246,7 @@ impl Event {
             | Event::BusError { t_s, .. }
             | Event::BusFault { t_s, .. }
             | Event::BusRestored { t_s, .. }
+            | Event::SetpointSource { t_s, .. }
             | Event::NodeState { t_s, .. }
             | Event::OwnState { t_s, .. }
             | Event::Overrun { t_s, .. }
@@ -261,6 +270,8 @@ impl Event {
             Event::BusError { .. } => "bus_error",
             Event::BusFault { .. } => "bus_fault",
             Event::BusRestored { .. } => "bus_restored",
+            Event::SetpointSource { lost: true, .. } => "setpoint_timeout",
+            Event::SetpointSource { lost: false, .. } => "setpoint_back",
             Event::NodeState { .. } => "node_state",
             Event::OwnState { .. } => "own_state",
             Event::Overrun { .. } => "overrun",
@@ -350,6 +361,24 @@ impl std::fmt::Display for Event {
                 f,
                 "t={t_s:.4}s bus back after {outage_s:.3} s ({cycles_lost} cycles) of {cause}: SYNC resumed, EMCY 0x{:04X} sent",
                 cause.emcy_code()
+            ),
+            Event::SetpointSource {
+                t_s,
+                axis_node_id,
+                lost: true,
+                cycle,
+            } => write!(
+                f,
+                "t={t_s:.4}s cycle {cycle}: axis {axis_node_id}: no set-point from its commander within [axis.setpoint_timeout] timeout_s: its reaction runs, EMCY 0x8250"
+            ),
+            Event::SetpointSource {
+                t_s,
+                axis_node_id,
+                cycle,
+                ..
+            } => write!(
+                f,
+                "t={t_s:.4}s cycle {cycle}: axis {axis_node_id}: set-points from its commander again, EMCY 0x0000"
             ),
             Event::NodeState {
                 t_s,

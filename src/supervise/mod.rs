@@ -15,6 +15,7 @@ mod observer;
 mod observer_section;
 mod param_diagnosis;
 mod parameter_estimation_section;
+mod setpoint_timeout;
 
 pub use estimator_supervisor::{
     EstimatorHealth, EstimatorSupervisor, EstimatorSupervisorConfig, MAX_SUPERVISED,
@@ -33,3 +34,6 @@ pub use param_diagnosis::{
     PhysicalParameters, Symptom, SymptomThresholds, PHYSICAL_NAMES, PHYSICAL_PARAMS,
 };
 pub use parameter_estimation_section::{NominalParameters, ParameterEstimationSection};
+pub use setpoint_timeout::{
+    SetpointSourceEvent, SetpointTimeoutReaction, SetpointTimeoutSection, SetpointWatchdog,
+};

@@ -53,6 +53,7 @@ mod robust_hinf;
 mod sdo_eds;
 mod sdo_fuzz;
 mod sdo_roundtrip;
+mod setpoint_timeout;
 mod startup;
 mod supply_schedule;
 mod systemd_unit;

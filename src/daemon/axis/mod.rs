@@ -7,6 +7,7 @@
 //! [`Axis::new`]; the stages allocate nothing.
 
 use super::config::{AxisConfig, CommandKind, SetpointStep};
+mod commander;
 mod estimation;
 mod friction;
 mod law;
@@ -22,8 +23,9 @@ use crate::device::{
 };
 use crate::recording::Stage;
 use crate::supervise::{
-    EstimatorHealth, FaultMachineOutput, PhysicalParameters, SupervisedFault, SupervisionInput,
-    SupervisionOutput, Symptom, PHYSICAL_PARAMS,
+    EstimatorHealth, FaultMachineOutput, PhysicalParameters, SetpointSourceEvent,
+    SetpointTimeoutSection, SetpointWatchdog, SupervisedFault, SupervisionInput, SupervisionOutput,
+    Symptom, PHYSICAL_PARAMS,
 };
 use estimation::Estimation;
 use friction::FrictionCompensation;
@@ -114,6 +116,8 @@ pub struct AxisStep {
     pub supply_band: BandStatus,
     /// Arrival relief taken out of the controller's stored output this cycle, command unit.
     pub arrival_relief: f64,
+    /// The commander went quiet (or came back) this cycle (`[axis.setpoint_timeout]`).
+    pub setpoint_source: Option<SetpointSourceEvent>,
 }
 
 impl AxisStep {
@@ -237,6 +241,10 @@ pub struct Axis {
     /// An arrival relief went into the command since the set-point last changed: the
     /// estimation leaves the samples out until it changes again.
     relief_hold: bool,
+    /// The watch on the commander's set-points and its reaction, when configured.
+    setpoint_timeout: Option<(SetpointWatchdog, SetpointTimeoutSection)>,
+    /// What the watch found this cycle.
+    setpoint_source: Option<SetpointSourceEvent>,
 }
 
 impl Axis {
@@ -284,6 +292,11 @@ impl Axis {
             node_was_operational: false,
             last_command: cfg.safe_command,
             relief_hold: false,
+            setpoint_timeout: cfg
+                .setpoint_timeout
+                .as_ref()
+                .map(|s| (SetpointWatchdog::new(s.timeout_s), s.clone())),
+            setpoint_source: None,
         })
     }
 
@@ -451,8 +464,12 @@ impl Axis {
             }
             let position = s.position_m;
             self.next_step += 1;
-            self.set_setpoint(position);
+            // The commander's loss reaction holds over the schedule until it is back.
+            if !self.commander_lost() {
+                self.set_setpoint(position);
+            }
         }
+        self.watch_commander(now_s);
         self.fresh = self.sensor_fresh;
         self.sensor_fresh = false;
         self.missing_cycles = if self.fresh {
@@ -539,7 +556,10 @@ impl Axis {
         if self.command_kind == CommandKind::Position {
             // The drive closes the loop: its target is the reference, corrected by the
             // controller's output; fail-safe or not yet free to move, where the axis stands.
-            self.last_command = if self.supervision.fail_safe() || !self.motion_enabled {
+            self.last_command = if self.supervision.fail_safe()
+                || self.commander_safe_command()
+                || !self.motion_enabled
+            {
                 self.law.preset(0.0);
                 y
             } else if self.fresh {
@@ -550,7 +570,7 @@ impl Axis {
             } else {
                 self.last_command
             };
-        } else if self.supervision.fail_safe() {
+        } else if self.supervision.fail_safe() || self.commander_safe_command() {
             self.last_command = self.safe_command;
             self.friction.idle();
         } else if self.fresh {
@@ -621,6 +641,7 @@ impl Axis {
             tuned,
             supply_band: self.supply_schedule.band(),
             arrival_relief,
+            setpoint_source: self.setpoint_source,
         }
     }
 
