@@ -557,3 +557,49 @@ fn an_sdo_parameter_write_is_handed_off_and_swapped_in_without_allocating() {
     assert_eq!(node.dictionary().read(q0), Ok(2300.0f64.into()));
     assert_eq!(counted, 0, "allocations in {} cycles", cycles - warm_up);
 }
+
+/// A rebooted node configured again on the cycle thread: every request, answer and the NMT
+/// start, over and over, without allocating.
+#[test]
+fn configuring_a_rebooted_node_again_does_not_allocate() {
+    use actuatord::canopen::od::{EntrySpec, ObjectDictionary, ObjectId};
+    use actuatord::canopen::{NmtState, SdoServer};
+    use actuatord::daemon::profile_rejoin::{Rejoin, RejoinProgress};
+    use actuatord::daemon::profile_setup::SetupStep;
+    let mut od = ObjectDictionary::builder()
+        .var(0x1000, EntrySpec::ro("device_type", 0x0002_0192u32))
+        .var(0x2000, EntrySpec::rw("value", 0u32))
+        .build()
+        .expect("dictionary");
+    let mut server = SdoServer::new(9);
+    let mut rejoin = Rejoin::new(
+        9,
+        vec![
+            SetupStep::check(ObjectId::new(0x1000, 0), 402, 0xFFFF, "device type"),
+            SetupStep::write(ObjectId::new(0x2000, 0), &7u32.to_le_bytes(), "value"),
+            SetupStep::check(ObjectId::new(0x2000, 0), 7, u32::MAX, "value"),
+        ],
+    );
+    let mut started = 0;
+    let n = count(|k| {
+        if !rejoin.is_running() {
+            rejoin.begin();
+        }
+        let mut out = [None; 2];
+        let mut i = 0;
+        let told = rejoin.poll(k as f64 * 0.002, &mut |f| {
+            out[i] = Some(*f);
+            i += 1;
+        });
+        started += usize::from(matches!(told, RejoinProgress::Started { .. }));
+        for f in out.iter().flatten() {
+            if let Some(a) = server.handle(f, 0.0, &mut od, NmtState::PreOperational) {
+                rejoin.handle(&a);
+            }
+            od.take_pending_writes().for_each(drop);
+        }
+    });
+    assert_eq!(n, 0);
+    // Four cycles a round: three transfers and the start.
+    assert_eq!(started, 5000 / 4);
+}

@@ -84,6 +84,11 @@ enum Command {
         /// A CiA 402 drive fault at a plant time, CODE@TIME, e.g. 0x4310@2s. Repeatable.
         #[arg(long = "drive-fault")]
         drive_faults: Vec<actuatord::simnode::DriveFault>,
+        /// Reboot the node at this plant time (e.g. 3s): boot-up message, pre-operational,
+        /// factory values (a standard node's mapping, watchdogs and home lost), as after a
+        /// brown-out of its electronics; the plant keeps its state.
+        #[arg(long = "reboot-at", value_parser = parse_duration_s)]
+        reboot_at_s: Option<f64>,
         /// Print the simulated profile node's EDS (its factory dictionary) and exit.
         #[arg(long)]
         print_eds: bool,
@@ -406,6 +411,7 @@ fn run(args: Args) -> anyhow::Result<()> {
             seconds,
             profile,
             drive_faults,
+            reboot_at_s,
             print_eds,
         } => {
             if print_eds {
@@ -474,6 +480,9 @@ fn run(args: Args) -> anyhow::Result<()> {
                 if locked { "" } else { " (memory not locked)" }
             );
             let mut node = SimNode::new(node_id, model, period_s, faults);
+            if let Some(t) = reboot_at_s {
+                node = node.with_reboot_at(t);
+            }
             if let Some(profile) = profile {
                 eprintln!("actuator sim: speaking {profile}");
                 node = node.with_profile(actuatord::simnode::ProfileNode::new(
@@ -505,6 +514,7 @@ fn run(args: Args) -> anyhow::Result<()> {
                         fault.fault
                     ),
                     SimEvent::StateChanged(s) => eprintln!("actuator sim: node is {}", s.name()),
+                    SimEvent::Rebooted { plant_time_s } => eprintln!("actuator sim: rebooted at plant time {plant_time_s:.4} s (factory values, pre-operational)"),
                     SimEvent::Malformed(f) => eprintln!("actuator sim: malformed frame ignored: {f}"),
                     SimEvent::BusLost(cause) => eprintln!("actuator sim: bus fault: {cause}; waiting for the bus"),
                     SimEvent::BusRestored { cause, outage_s } => eprintln!("actuator sim: bus back after {outage_s:.3} s of {cause}"),

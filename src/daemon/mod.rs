@@ -16,6 +16,7 @@ pub mod profile_config;
 pub mod profile_dbc;
 pub mod profile_homing;
 pub mod profile_link;
+pub mod profile_rejoin;
 pub mod profile_setup;
 pub mod reconfigure;
 pub use crate::recording::record;

@@ -5,8 +5,9 @@ use super::axis::{Axis, AxisStep};
 use super::config::{cycles, BusLossPolicy, CommandKind, Config};
 use super::dictionary::{self, LiveObjects, LoopFigures, WriteEffect};
 use super::profile_link::{NodeLayout, ProfileLink, Received};
+use super::profile_rejoin::{Rejoin, RejoinProgress};
 use super::reconfigure::{build_parameters, BuildInput, BuildKind, Built};
-use super::record::{CycleRecord, Event, Record};
+use super::record::{CycleRecord, Event, Record, RejoinStage};
 use super::slot::{Axes, AxesMut, AxisSlot};
 use crate::bus::{BusFault, Frame};
 use crate::canopen::od::PendingWrite;
@@ -201,6 +202,7 @@ impl ControllerNode {
                         .and_then(|d| d.rated_torque_nm)
                         .unwrap_or(0.0),
                     error_code: 0,
+                    rejoin: vec![],
                 };
                 AxisSlot::new(axis, ProfileLink::new(a, &layout, period_s))
             })
@@ -242,7 +244,14 @@ impl ControllerNode {
     pub fn set_node_layout(&mut self, index: usize, layout: &NodeLayout) {
         if let (Some(slot), Some(axis)) = (self.slots.get_mut(index), self.config.axis.get(index)) {
             slot.link = ProfileLink::new(axis, layout, self.period_s);
+            slot.rejoin = (slot.link.is_some() && !layout.rejoin.is_empty())
+                .then(|| Rejoin::new(axis.actuator_node_id, layout.rejoin.clone()));
         }
+    }
+
+    /// What configures axis `index`'s standard node again when it reboots, if anything.
+    pub fn rejoin(&self, index: usize) -> Option<&Rejoin> {
+        self.slots.get(index).and_then(|s| s.rejoin.as_ref())
     }
 
     /// The link to axis `index`'s standard node, if it has one.
@@ -485,16 +494,31 @@ impl ControllerNode {
             match decode_heartbeat(frame) {
                 Ok((node, state)) => {
                     if let Some(index) = self.axis_index(node) {
-                        let axis = &mut self.slots[index].axis;
-                        axis.on_heartbeat(state, now_s);
+                        let slot = &mut self.slots[index];
+                        slot.axis.on_heartbeat(state, now_s);
                         if state == NmtState::Initialising {
                             record(Record::Event(Event::NodeState {
                                 t_s: now_s,
                                 node_id: node,
                                 state,
                             }));
-                            // A rebooted node waits in pre-operational: start it again.
-                            if axis.start_node {
+                            if let (Some(rejoin), Some(link)) =
+                                (slot.rejoin.as_mut(), slot.link.as_mut())
+                            {
+                                // A standard node is back with its factory layout: configure
+                                // it again before it is started.
+                                link.rebooted();
+                                rejoin.begin();
+                                slot.resume = false;
+                                record(Record::Event(Event::NodeRejoin {
+                                    t_s: now_s,
+                                    node_id: node,
+                                    stage: RejoinStage::Rebooted {
+                                        steps: rejoin.steps().len() as u32,
+                                    },
+                                }));
+                            } else if slot.axis.start_node {
+                                // A rebooted node waits in pre-operational: start it again.
                                 self.pending_reset = true;
                             }
                         }
@@ -502,6 +526,15 @@ impl ControllerNode {
                 }
                 Err(e) => malformed(self, e),
             }
+            return;
+        }
+        if id & !0x7F == crate::canopen::sdo::SDO_TX_FUNCTION
+            && self
+                .slots
+                .iter_mut()
+                .filter_map(|s| s.rejoin.as_mut())
+                .any(|r| r.handle(frame))
+        {
             return;
         }
         for slot in self.slots.iter_mut() {
@@ -607,10 +640,60 @@ impl ControllerNode {
         }));
     }
 
+    /// Rebooted standard nodes: the next SDO transfer of their configuration, and an axis
+    /// whose node is back (started, operational, readings fresh this cycle) resumes with its
+    /// faults reset, as a fault reset frame for it would.
+    fn poll_rejoins(
+        &mut self,
+        now_s: f64,
+        send: &mut dyn FnMut(&Frame),
+        record: &mut dyn FnMut(Record),
+    ) {
+        for index in 0..self.slots.len() {
+            let slot = &mut self.slots[index];
+            let node_id = slot.axis.actuator_node_id;
+            let Some(rejoin) = slot.rejoin.as_mut() else {
+                continue;
+            };
+            let stage = match rejoin.poll(now_s, send) {
+                RejoinProgress::Nothing => None,
+                RejoinProgress::Started { steps } => {
+                    slot.resume = true;
+                    Some(RejoinStage::Started { steps })
+                }
+                RejoinProgress::Failed { step, failure } => {
+                    Some(RejoinStage::Failed { step, failure })
+                }
+            };
+            if let Some(stage) = stage {
+                record(Record::Event(Event::NodeRejoin {
+                    t_s: now_s,
+                    node_id,
+                    stage,
+                }));
+            }
+            let back = slot.axis.node_state() == Some(NmtState::Operational)
+                && slot.axis.has_fresh_sensor();
+            if slot.resume && back {
+                slot.resume = false;
+                self.reset_faults(node_id, now_s, record);
+                record(Record::Event(Event::NodeRejoin {
+                    t_s: now_s,
+                    node_id,
+                    stage: RejoinStage::Resumed,
+                }));
+            }
+        }
+    }
+
     fn reset_faults(&mut self, axis_node: u8, now_s: f64, record: &mut dyn FnMut(Record)) {
         for slot in self.slots.iter_mut() {
             let axis = &mut slot.axis;
             if axis_node == 0 || axis.actuator_node_id == axis_node {
+                if let Some(rejoin) = slot.rejoin.as_mut().filter(|r| r.has_failed()) {
+                    // A node that could not be configured again is tried once more.
+                    rejoin.begin();
+                }
                 if let Some(link) = slot.link.as_mut() {
                     // The drive's own fault is reset through its state machine.
                     link.request_fault_reset();
@@ -665,6 +748,7 @@ impl ControllerNode {
             }
         }
         self.apply_sdo_writes(now_s, record);
+        self.poll_rejoins(now_s, send, record);
         let operational = self.state == NmtState::Operational;
         let sync_counter = self.sync.value();
         let status_due = cycle % u64::from(self.status_every) == 0;
@@ -682,8 +766,12 @@ impl ControllerNode {
                 self.counters.sensor_missed += 1;
                 slot.sensor_missed += 1;
             }
+            let rejoining = slot.rejoin.as_ref().is_some_and(Rejoin::is_running);
             if let (true, Some(link)) = (operational, slot.link.as_mut()) {
-                link.send_command(step.command, send);
+                // A node being configured again gets its PDOs once it is started.
+                if !rejoining {
+                    link.send_command(step.command, send);
+                }
             } else if operational {
                 let command = match slot.axis.command_kind {
                     CommandKind::Duty => CommandPdo {

@@ -138,6 +138,11 @@ impl HomingSequence {
         self.failure().filter(|_| self.require_homing)
     }
 
+    /// The drive rebooted: its home is lost, the sequence starts again (a failure included).
+    pub fn restart(&mut self) {
+        self.phase = Phase::Waiting;
+    }
+
     /// A fault reset: a failed homing is tried again.
     pub fn retry(&mut self) {
         if matches!(self.phase, Phase::Failed(_)) {

@@ -27,6 +27,10 @@ pub struct NodeLayout {
     pub rated_torque_nm: f64,
     /// 603Fh read at start-up: a drive already in fault names it before any EMCY is seen.
     pub error_code: u16,
+    /// What configures the node again when it reboots while the daemon runs: its device type
+    /// checked, then the start-up's plan ([`super::profile_setup::plan`]). Empty: the node is
+    /// only started again.
+    pub rejoin: Vec<super::profile_setup::SetupStep>,
 }
 
 /// What a received frame was to the link.
@@ -317,6 +321,33 @@ impl ProfileLink {
                     && *mode_display == Mode::CyclicSynchronousPosition.code()
             }
             _ => true,
+        }
+    }
+
+    /// The node rebooted: what the link knew of it is gone (the drive's state, its error code,
+    /// its home); the power state machine and homing start again once it sends PDOs.
+    pub fn rebooted(&mut self) {
+        self.got_mask = 0;
+        if let Device::Drive {
+            driver,
+            statusword,
+            emcy_code,
+            reset_grace,
+            mode_display,
+            homing,
+            ..
+        } = &mut self.device
+        {
+            let target = driver.target();
+            *driver = PowerDriver::new();
+            driver.set_target(target);
+            *statusword = 0;
+            *emcy_code = 0;
+            *reset_grace = 0;
+            *mode_display = 0;
+            if let Some(h) = homing {
+                h.restart();
+            }
         }
     }
 

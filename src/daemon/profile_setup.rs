@@ -4,6 +4,11 @@
 //! back, or take the layout from the node's EDS and check the node has it; give it the
 //! daemon's heartbeat to watch (1016h) and, for a drive, what to do when it stops (6007h);
 //! for a drive, set and check the mode of operation and read the rated torque.
+//!
+//! The writes and read-backs are one plan ([`SetupStep`]s), made from the configuration before
+//! the node is asked anything: run here at start-up, and kept in the [`NodeLayout`] for the
+//! cycle to run again, without blocking, when the node reboots
+//! ([`super::profile_rejoin::Rejoin`]).
 
 use super::config::AxisConfig;
 use super::node_sections::NodeConfig;
@@ -68,6 +73,64 @@ pub enum SetupError {
         #[source]
         source: BusError,
     },
+}
+
+/// One step of a node's configuration over SDO: a value written, or a value read back and
+/// compared under a mask. Every value the daemon configures fits an expedited transfer.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SetupStep {
+    pub id: ObjectId,
+    pub action: StepAction,
+    /// What the object is, for messages ("TPDO1 (1800h/1A00h) COB-ID").
+    pub what: String,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepAction {
+    /// Write the first `len` bytes (1 to 4, little-endian).
+    Write { bytes: [u8; 4], len: u8 },
+    /// Read and compare: `got & mask == expected & mask`.
+    Check { expected: u32, mask: u32 },
+}
+
+impl SetupStep {
+    /// Write `bytes` (at most 4: longer values are not configured by the daemon).
+    pub fn write(id: ObjectId, bytes: &[u8], what: impl Into<String>) -> Self {
+        let mut b = [0u8; 4];
+        let len = bytes.len().min(4);
+        b[..len].copy_from_slice(&bytes[..len]);
+        Self {
+            id,
+            action: StepAction::Write {
+                bytes: b,
+                len: len as u8,
+            },
+            what: what.into(),
+        }
+    }
+
+    /// Read `id` back and compare it with `expected` under `mask`.
+    pub fn check(id: ObjectId, expected: u32, mask: u32, what: impl Into<String>) -> Self {
+        Self {
+            id,
+            action: StepAction::Check { expected, mask },
+            what: what.into(),
+        }
+    }
+
+    /// A value written and then read back whole (`expected` under `mask`).
+    fn write_checked(
+        id: ObjectId,
+        bytes: &[u8],
+        expected: u32,
+        mask: u32,
+        what: &str,
+    ) -> [Self; 2] {
+        [
+            Self::write(id, bytes, what),
+            Self::check(id, expected, mask, what),
+        ]
+    }
 }
 
 /// One SDO transfer on `bus`, answered or timed out.
@@ -159,6 +222,21 @@ impl Session<'_> {
                 expected,
                 got,
             });
+        }
+        Ok(())
+    }
+
+    /// Run `steps` in order; the first refusal or mismatch ends the setup.
+    fn run(&mut self, steps: &[SetupStep]) -> Result<(), SetupError> {
+        for step in steps {
+            match step.action {
+                StepAction::Write { bytes, len } => {
+                    self.write(step.id, &bytes[..usize::from(len)], &step.what)?
+                }
+                StepAction::Check { expected, mask } => {
+                    self.check(step.id, &step.what, expected, mask)?
+                }
+            }
         }
         Ok(())
     }
@@ -298,11 +376,15 @@ pub fn planned_layout(axis: &AxisConfig) -> Result<Vec<Pdo>, SetupError> {
 type HomingWrite = (u16, u8, Vec<u8>, u32, u32, &'static str);
 
 /// The homing objects in the drive's units, each read back.
-fn write_homing(s: &mut Session, d: &Cia402Section, h: &HomingSection) -> Result<(), SetupError> {
+fn homing_steps(
+    axis: &str,
+    d: &Cia402Section,
+    h: &HomingSection,
+) -> Result<Vec<SetupStep>, SetupError> {
     let velocity = d.velocity_m_per_s_per_unit;
     let acceleration = d.acceleration_m_per_s2_per_unit.unwrap_or(velocity);
     let out_of_range = |key: &str, value: f64| SetupError::Layout {
-        axis: s.axis.clone(),
+        axis: axis.to_string(),
         reason: format!(
             "{}.{}.{key} = {value} does not fit the drive's object in its units",
             crate::param_key!(AxisConfig, cia402),
@@ -372,12 +454,12 @@ fn write_homing(s: &mut Session, d: &Cia402Section, h: &HomingSection) -> Result
             "home offset",
         ),
     ];
-    for (index, sub, bytes, expected, mask, what) in writes {
-        let id = ObjectId::new(index, sub);
-        s.write(id, &bytes, what)?;
-        s.check(id, what, expected, mask)?;
-    }
-    Ok(())
+    Ok(writes
+        .into_iter()
+        .flat_map(|(index, sub, bytes, expected, mask, what)| {
+            SetupStep::write_checked(ObjectId::new(index, sub), &bytes, expected, mask, what)
+        })
+        .collect())
 }
 
 /// The consumer heartbeat time a standard node watches the daemon with, ms: the daemon's
@@ -401,28 +483,74 @@ pub fn consumer_heartbeat_ms(node: &NodeConfig) -> Result<u16, String> {
 
 /// The node watches the daemon's heartbeat (1016h sub 1, CiA 301) and a drive is told what to
 /// do when it stops (6007h, CiA 402); each written and read back.
-fn write_watchdogs(
-    s: &mut Session,
-    node: &NodeConfig,
-    axis: &AxisConfig,
-) -> Result<(), SetupError> {
+fn watchdog_steps(node: &NodeConfig, axis: &AxisConfig) -> Result<Vec<SetupStep>, SetupError> {
     let time_ms = consumer_heartbeat_ms(node).map_err(|reason| SetupError::Layout {
-        axis: s.axis.clone(),
+        axis: axis.name.clone(),
         reason,
     })?;
     let entry = encode_consumer_entry(node.node_id, time_ms);
-    let id = ObjectId::new(CONSUMER_HEARTBEAT_TIME, 1);
-    let what = "consumer heartbeat time of the daemon's heartbeat";
-    s.write(id, &entry.to_le_bytes(), what)?;
-    s.check(id, what, entry, u32::MAX)?;
+    let mut steps = SetupStep::write_checked(
+        ObjectId::new(CONSUMER_HEARTBEAT_TIME, 1),
+        &entry.to_le_bytes(),
+        entry,
+        u32::MAX,
+        "consumer heartbeat time of the daemon's heartbeat",
+    )
+    .to_vec();
     if let (ProfileKind::Cia402, Some(d)) = (axis.profile, &axis.cia402) {
         let code = d.abort_connection_option.code();
-        let id = ObjectId::new(cia402::ABORT_CONNECTION_OPTION, 0);
-        let what = "abort connection option code";
-        s.write(id, &code.to_le_bytes(), what)?;
-        s.check(id, what, code as u16 as u32, 0xFFFF)?;
+        steps.extend(SetupStep::write_checked(
+            ObjectId::new(cia402::ABORT_CONNECTION_OPTION, 0),
+            &code.to_le_bytes(),
+            code as u16 as u32,
+            0xFFFF,
+            "abort connection option code",
+        ));
     }
-    Ok(())
+    Ok(steps)
+}
+
+/// Every SDO write and read-back that configures the node of `axis` for `pdos`, in order: the
+/// PDO layout (unless the node has it from its EDS), the watchdogs, and for a drive homing
+/// and the mode of operation. Made from the configuration alone, before the node is asked.
+pub fn plan(
+    node: &NodeConfig,
+    axis: &AxisConfig,
+    pdos: &[Pdo],
+) -> Result<Vec<SetupStep>, SetupError> {
+    let mut steps = Vec::new();
+    if axis.eds.is_none() {
+        for pdo in pdos {
+            for w in pdo.configuration_writes() {
+                steps.push(SetupStep::write(w.id, &w.bytes(), what(pdo, w.id)));
+            }
+        }
+    }
+    for pdo in pdos {
+        for (id, expected, mask) in pdo.expected_reads() {
+            steps.push(SetupStep::check(id, expected, mask, what(pdo, id)));
+        }
+    }
+    steps.extend(watchdog_steps(node, axis)?);
+    if let (ProfileKind::Cia402, Some(d)) = (axis.profile, &axis.cia402) {
+        let mut mode = drive_mode(axis.command).map_or(0, |m| m.code());
+        if let Some(h) = &d.homing {
+            steps.extend(homing_steps(&axis.name, d, h)?);
+            mode = cia402::Mode::Homing.code();
+        }
+        steps.push(SetupStep::write(
+            ObjectId::new(cia402::MODES_OF_OPERATION, 0),
+            &mode.to_le_bytes(),
+            "modes of operation",
+        ));
+        steps.push(SetupStep::check(
+            ObjectId::new(cia402::MODES_OF_OPERATION_DISPLAY, 0),
+            mode as u8 as u32,
+            0xFF,
+            "modes of operation display",
+        ));
+    }
+    Ok(steps)
 }
 
 /// Set up the standard node of `axis` on `bus`, whose master is the daemon's `node` (see the
@@ -438,6 +566,7 @@ pub fn configure(
                 pdos: vec![],
                 rated_torque_nm: 0.0,
                 error_code: 0,
+                rejoin: vec![],
             })
         }
         ProfileKind::Cia402 => (
@@ -450,6 +579,7 @@ pub fn configure(
         ),
     };
     let pdos = planned_layout(axis)?;
+    let steps = plan(node, axis, &pdos)?;
     let mut s = Session {
         bus,
         axis: axis.name.clone(),
@@ -467,38 +597,10 @@ pub fn configure(
     // CiA 302: a slave is configured in pre-operational, where its PDOs are silent.
     let pre_op = NmtCommand::EnterPreOperational.encode(s.node);
     s.bus.send(&pre_op).map_err(|e| s.bus_error(e))?;
-    if axis.eds.is_none() {
-        for pdo in &pdos {
-            for w in pdo.configuration_writes() {
-                s.write(w.id, &w.bytes(), &what(pdo, w.id))?;
-            }
-        }
-    }
-    for pdo in &pdos {
-        for (id, expected, mask) in pdo.expected_reads() {
-            s.check(id, &what(pdo, id), expected, mask)?;
-        }
-    }
-    write_watchdogs(&mut s, node, axis)?;
+    s.run(&steps)?;
     let mut rated_torque_nm = 0.0;
     let mut error_code = 0;
     if let (ProfileKind::Cia402, Some(d)) = (axis.profile, &axis.cia402) {
-        let mut mode = drive_mode(axis.command).map_or(0, |m| m.code());
-        if let Some(h) = &d.homing {
-            write_homing(&mut s, d, h)?;
-            mode = cia402::Mode::Homing.code();
-        }
-        s.write(
-            ObjectId::new(cia402::MODES_OF_OPERATION, 0),
-            &mode.to_le_bytes(),
-            "modes of operation",
-        )?;
-        s.check(
-            ObjectId::new(cia402::MODES_OF_OPERATION_DISPLAY, 0),
-            "modes of operation display",
-            mode as u8 as u32,
-            0xFF,
-        )?;
         rated_torque_nm = match d.rated_torque_nm {
             Some(t) => t,
             None => {
@@ -520,9 +622,18 @@ pub fn configure(
         // A drive that is in fault already announced it before we listened.
         error_code = s.read(ObjectId::new(cia402::ERROR_CODE, 0), "error code")? as u16;
     }
+    // A node that reboots while the daemon runs is first asked what it is, then set up again.
+    let mut rejoin = vec![SetupStep::check(
+        ObjectId::new(0x1000, 0),
+        u32::from(profile),
+        0xFFFF,
+        "device type",
+    )];
+    rejoin.extend(steps);
     Ok(NodeLayout {
         pdos,
         rated_torque_nm,
         error_code,
+        rejoin,
     })
 }

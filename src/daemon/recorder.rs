@@ -1,7 +1,7 @@
 //! The recorder: a bounded queue from the cycle to a writer thread that writes MCAP and logs
 //! events. The cycle never waits for it; what does not fit in the queue is dropped and counted.
 
-use super::record::{CycleRecord, Event, Record};
+use super::record::{CycleRecord, Event, Record, RejoinStage};
 use crate::bus::Frame;
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -309,9 +309,17 @@ fn log_event(e: &Event) {
         | Event::Overrun { .. }
         | Event::BusError { .. }
         | Event::BusRestored { .. }
-        | Event::SetpointSource { .. } => {
+        | Event::SetpointSource { .. }
+        | Event::NodeRejoin {
+            stage: RejoinStage::Rebooted { .. },
+            ..
+        } => {
             tracing::warn!(kind = e.kind(), "{e}")
         }
+        Event::NodeRejoin {
+            stage: RejoinStage::Failed { .. },
+            ..
+        } => tracing::error!(kind = e.kind(), "{e}"),
         Event::BusFault { .. } => tracing::error!(kind = e.kind(), "{e}"),
         Event::Malformed { .. } => tracing::warn!(kind = e.kind(), "{e}"),
         Event::Started {

@@ -6,6 +6,7 @@ use std::ops::{Index, IndexMut};
 
 use super::axis::Axis;
 use super::profile_link::ProfileLink;
+use super::profile_rejoin::Rejoin;
 use crate::control::BandStatus;
 use crate::supervise::FaultState;
 
@@ -13,6 +14,12 @@ pub struct AxisSlot {
     pub(super) axis: Axis,
     /// The link to a standard (CiA 402/401) actuator node; `None` for ours.
     pub(super) link: Option<ProfileLink>,
+    /// Configures the standard node again when it reboots; `None` for ours, or a node whose
+    /// start-up plan is not known (it is only started again).
+    pub(super) rejoin: Option<Rejoin>,
+    /// The rebooted node was configured and started: the axis resumes once the node is
+    /// operational and its readings are fresh.
+    pub(super) resume: bool,
     /// Fault state, latched limit faults and latched diagnoses sent last cycle.
     pub(super) last_fault_state: (FaultState, u16, u16),
     /// Where the supply was against its scheduled band last cycle.
@@ -28,6 +35,8 @@ impl AxisSlot {
         Self {
             axis,
             link,
+            rejoin: None,
+            resume: false,
             last_fault_state: (FaultState::Ok, 0, 0),
             last_supply_band: BandStatus::Inside,
             announce_reset: false,

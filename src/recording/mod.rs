@@ -6,7 +6,7 @@
 
 pub mod record;
 
-pub use record::{CycleRecord, Event, Record, Stage, STAGES};
+pub use record::{CycleRecord, Event, Record, RejoinFailure, RejoinStage, Stage, STAGES};
 
 use std::path::{Path, PathBuf};
 

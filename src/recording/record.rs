@@ -2,6 +2,8 @@
 //! real-time thread hands them over without allocating; the writer thread formats them.
 
 use crate::bus::{BusErrorFrame, BusFault, Frame};
+use crate::canopen::od::ObjectId;
+use crate::canopen::sdo::AbortCode;
 use crate::canopen::{DecodeError, NmtState};
 use crate::supervise::{FaultKind, FaultState, SupervisedFault};
 use serde::{Deserialize, Serialize};
@@ -144,6 +146,12 @@ pub enum Event {
         node_id: u8,
         state: NmtState,
     },
+    /// A standard node rebooted while the daemon ran, and what became of configuring it again.
+    NodeRejoin {
+        t_s: f64,
+        node_id: u8,
+        stage: RejoinStage,
+    },
     OwnState {
         t_s: f64,
         state: NmtState,
@@ -179,6 +187,45 @@ pub enum Event {
         t_s: f64,
         reason: ReasonText,
     },
+}
+
+/// Where a rebooted standard node is on its way back.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RejoinStage {
+    /// Its boot-up was seen: its configuration of `steps` SDO transfers runs again.
+    Rebooted { steps: u32 },
+    /// Every step passed; the node was told to start.
+    Started { steps: u32 },
+    /// Operational with fresh readings: the axis' faults were reset and it runs again.
+    Resumed,
+    /// Step `step` (from 0) failed: the axis stays in fault.
+    Failed { step: u32, failure: RejoinFailure },
+}
+
+/// Why a rebooted node could not be configured again.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RejoinFailure {
+    /// The node aborted the transfer (or did not answer: abort code 0504 0000h).
+    Refused { object: ObjectId, code: AbortCode },
+    /// The node holds another value than the one configured.
+    Mismatch {
+        object: ObjectId,
+        expected: u32,
+        got: u32,
+    },
+}
+
+impl std::fmt::Display for RejoinFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RejoinFailure::Refused { object, code } => write!(f, "{object}: SDO abort {code}"),
+            RejoinFailure::Mismatch {
+                object,
+                expected,
+                got,
+            } => write!(f, "{object} reads 0x{got:X}, expected 0x{expected:X}"),
+        }
+    }
 }
 
 /// A short message carried by value, so events stay `Copy` (cut at 120 bytes).
@@ -248,6 +295,7 @@ impl Event {
             | Event::BusRestored { t_s, .. }
             | Event::SetpointSource { t_s, .. }
             | Event::NodeState { t_s, .. }
+            | Event::NodeRejoin { t_s, .. }
             | Event::OwnState { t_s, .. }
             | Event::Overrun { t_s, .. }
             | Event::Timing { t_s, .. }
@@ -273,6 +321,12 @@ impl Event {
             Event::SetpointSource { lost: true, .. } => "setpoint_timeout",
             Event::SetpointSource { lost: false, .. } => "setpoint_back",
             Event::NodeState { .. } => "node_state",
+            Event::NodeRejoin { stage, .. } => match stage {
+                RejoinStage::Rebooted { .. } => "node_rebooted",
+                RejoinStage::Started { .. } => "node_reconfigured",
+                RejoinStage::Resumed => "node_resumed",
+                RejoinStage::Failed { .. } => "node_reconfiguration_failed",
+            },
             Event::OwnState { .. } => "own_state",
             Event::Overrun { .. } => "overrun",
             Event::Timing { .. } => "timing",
@@ -385,6 +439,29 @@ impl std::fmt::Display for Event {
                 node_id,
                 state,
             } => write!(f, "t={t_s:.4}s node {node_id} is {}", state.name()),
+            Event::NodeRejoin {
+                t_s,
+                node_id,
+                stage,
+            } => match stage {
+                RejoinStage::Rebooted { steps } => write!(
+                    f,
+                    "t={t_s:.4}s node {node_id} rebooted: its axis is in fault, its configuration ({steps} SDO transfers) runs again"
+                ),
+                RejoinStage::Started { steps } => write!(
+                    f,
+                    "t={t_s:.4}s node {node_id} configured again ({steps} SDO transfers checked) and started"
+                ),
+                RejoinStage::Resumed => write!(
+                    f,
+                    "t={t_s:.4}s node {node_id} operational with fresh readings: its axis' faults reset, the axis runs again"
+                ),
+                RejoinStage::Failed { step, failure } => write!(
+                    f,
+                    "t={t_s:.4}s node {node_id} rebooted and could not be configured again (step {}): {failure}; its axis stays in fault until a fault reset or its next boot-up",
+                    step + 1
+                ),
+            },
             Event::OwnState { t_s, state } => write!(f, "t={t_s:.4}s controller is {}", state.name()),
             Event::Timing {
                 t_s,

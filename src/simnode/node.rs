@@ -19,6 +19,10 @@ pub enum SimEvent {
         sync_count: u64,
     },
     StateChanged(NmtState),
+    /// The node rebooted as scheduled (`--reboot-at`): boot-up sent, factory values.
+    Rebooted {
+        plant_time_s: f64,
+    },
     Malformed(Frame),
     /// The bus failed (interface down or gone, ...): the node waits for it, it does not exit.
     BusLost(crate::bus::BusFault),
@@ -54,6 +58,9 @@ pub struct SimNode {
     /// The node's own clock (s since it started), as the runtime last gave it: what a
     /// standard node's heartbeat consumer times the master with.
     clock_s: f64,
+    /// Plant time at which the node reboots (a brown-out of its electronics; the mechanics
+    /// keep moving), once.
+    reboot_at_s: Option<f64>,
 }
 
 impl SimNode {
@@ -77,7 +84,15 @@ impl SimNode {
             counters: SimCounters::default(),
             profile: None,
             clock_s: 0.0,
+            reboot_at_s: None,
         }
+    }
+
+    /// Reboot once the plant's time reaches `at_s`: the boot-up message, pre-operational, the
+    /// dictionary back to its factory values (a standard node loses its mapping and home).
+    pub fn with_reboot_at(mut self, at_s: f64) -> Self {
+        self.reboot_at_s = Some(at_s);
+        self
     }
 
     /// Speak a standard profile (CiA 402 drive, CiA 401 I/O module) instead of our frames.
@@ -229,6 +244,16 @@ impl SimNode {
                 fault: f,
                 plant_time_s: self.plant.time_s(),
                 sync_count: self.counters.syncs - 1,
+            });
+        }
+        if self
+            .reboot_at_s
+            .is_some_and(|t| t <= self.plant.time_s() + 1e-9)
+        {
+            self.reboot_at_s = None;
+            self.boot(send);
+            event(SimEvent::Rebooted {
+                plant_time_s: self.plant.time_s(),
             });
         }
         if let Some(p) = self.profile.as_mut() {

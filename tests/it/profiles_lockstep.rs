@@ -8,7 +8,7 @@ use actuatord::bus::{Bus, BusError, BusEvent, Frame};
 use actuatord::daemon::config::Config;
 use actuatord::daemon::node::CycleTiming;
 use actuatord::daemon::profile_setup::{configure, SetupError};
-use actuatord::daemon::record::{CycleRecord, Record};
+use actuatord::daemon::record::{CycleRecord, Event, Record, RejoinFailure, RejoinStage};
 use actuatord::daemon::ControllerNode;
 use actuatord::device::profile::cia402::State;
 use actuatord::device::{Emcy, FaultResetPdo};
@@ -62,6 +62,10 @@ struct Rig {
     /// Every frame on the bus after the start-up.
     bus: Vec<Frame>,
     records: Vec<CycleRecord>,
+    /// The controller's events, with their cycle.
+    events: Vec<(u64, Event)>,
+    /// The node's SDO answers are lost on the way (a node that does not answer).
+    mute_sdo: bool,
 }
 
 impl Rig {
@@ -85,6 +89,8 @@ impl Rig {
             sent: vec![],
             bus: vec![],
             records: vec![],
+            events: vec![],
+            mute_sdo: false,
         };
         let mut out = vec![];
         rig.controller.boot(&mut |f| out.push(*f), &mut |_| {});
@@ -99,13 +105,21 @@ impl Rig {
             self.bus.push(*f);
             self.sim.handle(f, &mut |a| answers.push(*a), &mut |_| {});
         }
+        if self.mute_sdo {
+            answers.retain(|a| a.id() != 0x590);
+        }
         self.bus.extend(&answers);
         answers
     }
 
     fn hand_to_controller(&mut self, frame: &Frame) {
         let t = self.k as f64 * self.period_s;
-        self.controller.handle(frame, t, &mut |_| {});
+        let (k, events) = (self.k, &mut self.events);
+        self.controller.handle(frame, t, &mut |r| {
+            if let Record::Event(e) = r {
+                events.push((k, e));
+            }
+        });
     }
 
     fn cycle(&mut self) {
@@ -120,13 +134,18 @@ impl Rig {
             self.hand_to_controller(&a);
         }
         let mut out = Vec::new();
-        let records = &mut self.records;
+        let (k, records, events) = (self.k, &mut self.records, &mut self.events);
         self.controller
-            .finish_cycle(t, CycleTiming::default(), &mut |f| out.push(*f), &mut |r| {
-                if let Record::Cycle(c) = r {
-                    records.push(c);
-                }
-            });
+            .finish_cycle(
+                t,
+                CycleTiming::default(),
+                &mut |f| out.push(*f),
+                &mut |r| match r {
+                    Record::Cycle(c) => records.push(c),
+                    Record::Event(e) => events.push((k, e)),
+                    _ => {}
+                },
+            );
         for a in self.deliver(&out) {
             self.hand_to_controller(&a);
         }
@@ -757,4 +776,168 @@ fn each_standard_node_is_given_the_daemons_heartbeat_to_watch() {
         ),
         "{e}"
     );
+}
+
+/// The node's rejoin events, in order, with their cycle.
+fn rejoin_stages(rig: &Rig) -> Vec<(u64, RejoinStage)> {
+    rig.events
+        .iter()
+        .filter_map(|(k, e)| match e {
+            Event::NodeRejoin {
+                node_id: 16, stage, ..
+            } => Some((*k, *stage)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// A drive that reboots while the daemon runs (its electronics browned out; the mechanics
+/// went on) comes back with its factory mapping, no watchdog and no home. The daemon sees its
+/// boot-up, runs the start-up's SDO plan again one transfer per cycle, starts it, homes it
+/// again and resumes the axis on its set-point; the drive ends with the layout it had.
+#[test]
+fn a_drive_that_reboots_is_configured_again_homed_again_and_the_axis_resumes() {
+    let config = Config::load(&root().join("config/cia402_csp_homing.toml")).expect("config");
+    let period = config.cycle.period_s;
+    let node = sim(
+        Profile::Cia402,
+        "config/plants/linear_axis_drive.toml",
+        vec![],
+        period,
+    )
+    .with_reboot_at(4.5);
+    let mut rig = Rig::new(&config, node).expect("set up");
+    let steps = rig
+        .controller
+        .rejoin(0)
+        .expect("a rejoin plan")
+        .steps()
+        .len();
+    let layout = rig.sim.profile().expect("profile").pdos().to_vec();
+    rig.run(4.506);
+    // The reboot took the drive's layout: factory values, no position in its TPDOs.
+    assert_ne!(rig.sim.profile().expect("profile").pdos(), &layout[..]);
+    rig.run(4.494);
+    let stages = rejoin_stages(&rig);
+    eprintln!("reboot: {stages:?}");
+    let reboot_cycle = (4.5 / period).round() as u64;
+    let [(k0, RejoinStage::Rebooted { steps: s0 }), (k1, RejoinStage::Started { steps: s1 }), (k2, RejoinStage::Resumed)] =
+        stages[..]
+    else {
+        panic!("rebooted, started, resumed: {stages:?}");
+    };
+    assert_eq!((s0 as usize, s1 as usize), (steps, steps));
+    assert!((reboot_cycle..reboot_cycle + 2).contains(&k0), "{k0}");
+    // One SDO request per cycle from the boot-up to the start, each answered, none aborted.
+    let requests: Vec<u64> = rig
+        .sent
+        .iter()
+        .filter(|(k, f)| *k >= k0 && f.id() == 0x610)
+        .map(|(k, _)| *k)
+        .collect();
+    assert_eq!(requests.len(), steps, "{requests:?}");
+    assert!(
+        requests.windows(2).all(|w| w[1] == w[0] + 1),
+        "{requests:?}"
+    );
+    assert_eq!(k1, requests[steps - 1] + 1);
+    let answers: Vec<&Frame> = rig.bus.iter().filter(|f| f.id() == 0x590).collect();
+    assert!(answers.iter().all(|f| f.data()[0] != 0x80));
+    eprintln!(
+        "reboot: {steps} SDO transfers in {} cycles ({:.0} ms), resumed {:.0} ms after the boot-up",
+        k1 - k0,
+        (k1 - k0) as f64 * period * 1e3,
+        (k2 - k0) as f64 * period * 1e3
+    );
+    // NMT start for node 16 in the cycle that told it.
+    assert!(rig
+        .sent
+        .iter()
+        .any(|(k, f)| *k == k1 && f.id() == 0 && f.data() == [0x01, 16]));
+    // The drive has its layout again and its watchdog; homed again, then CSP.
+    let p = rig.sim.profile().expect("profile");
+    assert_eq!(p.pdos(), &layout[..]);
+    let od = p.dictionary();
+    let watch = od.value(
+        od.handle(actuatord::canopen::od::ObjectId::new(0x1016, 1))
+            .expect("1016h"),
+    );
+    assert_eq!(watch, actuatord::canopen::Value::Unsigned32(0x0001_00C8));
+    let link = rig.controller.profile_link(0).expect("link");
+    assert_eq!(link.homed(), Some(true), "{:?}", link.homing_failure());
+    let mut modes: Vec<i8> = rig
+        .sent
+        .iter()
+        .filter(|(k, f)| *k > k1 && f.id() == 0x210)
+        .map(|(_, f)| f.data()[6] as i8)
+        .collect();
+    modes.dedup();
+    assert_eq!(modes, [6, 8], "homing again, then CSP");
+    // The axis was in fault while the drive was away, and reset when it resumed.
+    let emcys = rig.emcys();
+    assert!(
+        emcys
+            .iter()
+            .any(|(k, e)| (k0..k2).contains(k) && e.error_code != 0),
+        "{emcys:?}"
+    );
+    assert!(
+        emcys.iter().any(|(k, e)| *k >= k2 && e.error_code == 0),
+        "{emcys:?}"
+    );
+    // Back on its set-point (-5 mm), within the drive's band at rest.
+    let last = rig.records.last().expect("records");
+    assert_eq!(last.fault_state, 0, "{last:?}");
+    assert!((last.position + 0.005).abs() < 20e-6, "{}", last.position);
+    // Every cycle closed, the reboot's included.
+    assert_eq!(rig.records.len() as u64, rig.k);
+}
+
+/// A rebooted node that does not answer is a failed reconfiguration naming the object and
+/// the timeout: the axis stays in fault, nothing is started. The fault reset tries again.
+#[test]
+fn a_rebooted_node_that_does_not_answer_keeps_its_axis_in_fault_until_a_reset() {
+    let config = drive_config();
+    let period = config.cycle.period_s;
+    let node = sim(
+        Profile::Cia402,
+        "config/plants/linear_axis_drive.toml",
+        vec![],
+        period,
+    )
+    .with_reboot_at(1.0);
+    let mut rig = Rig::new(&config, node).expect("set up");
+    rig.mute_sdo = true;
+    rig.run(2.0);
+    let stages = rejoin_stages(&rig);
+    let [(k0, RejoinStage::Rebooted { .. }), (k1, RejoinStage::Failed { step: 0, failure })] =
+        stages[..]
+    else {
+        panic!("rebooted, failed: {stages:?}");
+    };
+    assert_eq!(
+        failure,
+        RejoinFailure::Refused {
+            object: actuatord::canopen::od::ObjectId::new(0x1000, 0),
+            code: actuatord::canopen::sdo::AbortCode::TIMEOUT
+        }
+    );
+    // The start-up's 0.5 s SDO timeout, counted in cycles.
+    let waited = (k1 - k0) as f64 * period;
+    assert!((0.5..0.52).contains(&waited), "{waited}");
+    assert!(rig.sim.state() != actuatord::canopen::NmtState::Operational);
+    assert_ne!(rig.records.last().expect("records").fault_state, 0);
+    rig.mute_sdo = false;
+    rig.hand_to_controller(&FaultResetPdo { axis_node_id: 16 }.encode(1));
+    rig.run(1.0);
+    let stages = rejoin_stages(&rig);
+    assert!(
+        matches!(
+            stages[2..],
+            [(_, RejoinStage::Started { .. }), (_, RejoinStage::Resumed)]
+        ),
+        "{stages:?}"
+    );
+    assert_eq!(rig.sim.state(), actuatord::canopen::NmtState::Operational);
+    assert_eq!(rig.records.last().expect("records").fault_state, 0);
 }

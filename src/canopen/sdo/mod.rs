@@ -13,10 +13,12 @@
 
 mod abort;
 mod client;
+mod expedited;
 mod server;
 
 pub use abort::AbortCode;
 pub use client::{encode_text, format_bytes, SdoClient, SdoError, SdoOutcome};
+pub use expedited::{Answer, Expedited};
 pub use server::SdoServer;
 
 use crate::canopen::Frame;

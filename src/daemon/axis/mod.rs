@@ -317,6 +317,11 @@ impl Axis {
         }
     }
 
+    /// The node's state as its last heartbeat gave it.
+    pub fn node_state(&self) -> Option<NmtState> {
+        self.node_state
+    }
+
     /// The bus is back after a loss: the node's heartbeats could not reach us meanwhile, so its
     /// heartbeat timeout starts again now instead of firing on the outage itself.
     pub fn on_bus_restored(&mut self, now_s: f64) {
