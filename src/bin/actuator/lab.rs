@@ -715,29 +715,19 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             })?;
             bar.finish();
             let (crit_mode, crit_before, crit_after) = f.criterion;
-            // A collapsed fit is a failure to report: nothing is written.
+            // A collapsed fit, or a parameter held at its bound where the record asks for more,
+            // is the model failing there and a failure to report: nothing is written.
             let balance_fit = actuatord::lab::regress::balance(&f.spec, &d, &prep)
                 .map(|b| b.evaluate())
                 .ok();
-            if let Some(why) = actuatord::lab::collapse::collapsed(
-                &m.spec, &f.spec, crit_after, None,
-            )
-            .or_else(|| {
-                balance_fit
-                    .as_ref()
-                    .and_then(|b| actuatord::lab::collapse::below_noise(b, &prep))
-            }) {
-                anyhow::bail!(
-                    "{}: {} on {}: {why}; {} not written",
-                    m.name,
-                    method.name(),
-                    d.origin,
-                    out.display()
-                );
-            }
-            // A parameter held at its bound where the record asks for more is the model failing
-            // there, never a value to write.
-            if let Some(why) = actuatord::lab::methods::held_at_bound(&f.parameters) {
+            let refused = actuatord::lab::collapse::collapsed(&m.spec, &f.spec, crit_after, None)
+                .or_else(|| {
+                    balance_fit
+                        .as_ref()
+                        .and_then(|b| actuatord::lab::collapse::below_noise(b, &prep))
+                })
+                .or_else(|| actuatord::lab::methods::held_at_bound(&f.parameters));
+            if let Some(why) = refused {
                 anyhow::bail!(
                     "{}: {} on {}: {why}; {} not written",
                     m.name,
