@@ -68,6 +68,11 @@ impl<'a> CycleRunner<'a> {
         sensor_deadline_s: f64,
     ) -> Self {
         node.set_stage_clock(rt::monotonic_ns);
+        // The cycle's time 0 is now: the error field stamps its entries by the wall clock.
+        let unix_now_s = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0.0, |d| d.as_secs_f64());
+        node.set_wall_clock_at_start(unix_now_s);
         Self {
             bus,
             node,
@@ -435,7 +440,10 @@ pub fn run_cycle_with(
             }
         };
         progress.store(k + 1, Ordering::Relaxed);
-        if let Some(state) = state.as_ref().filter(|s| (k + 1) % s.every_cycles() == 0) {
+        if let Some(state) = state
+            .as_ref()
+            .filter(|s| (k + 1) % s.every_cycles() == 0 || s.errors_changed(runner.node))
+        {
             state.offer(runner.node);
         }
         // Overrun: the next release time has already passed. Skip the lost periods instead of

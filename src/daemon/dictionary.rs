@@ -6,7 +6,7 @@ use super::config::{AxisConfig, Config, FrictionCompensationSection};
 use super::learned::AxisLearned;
 use super::record::CycleRecord;
 use crate::canopen::od::{BuildError, Handle, PendingWrite};
-use crate::canopen::{ObjectDictionary, Value};
+use crate::canopen::{ErrorField, ObjectDictionary, ObjectId, Value, ERROR_FIELD_LEN};
 use crate::device::objects::axis_intelligence::{
     self, symptom_bits, IntelligenceParameters, BAND_NAMES, ESTIMATE_NAMES, NOMINAL_NAMES,
 };
@@ -76,11 +76,17 @@ pub enum WriteEffect {
     Rebuild { axis: usize },
     /// The node-wide configuration changed (heartbeat period).
     Node,
+    /// Forget the errors of the pre-defined error field (0 written to 1003h sub 0).
+    ClearErrorField,
 }
 
 /// The effect of a write that leaves the configuration alone (a setpoint, a fault reset): what
 /// an operational node receives, applied in place without copying the configuration.
 pub fn live_effect(w: &PendingWrite) -> Option<WriteEffect> {
+    // Sub 0 is its only writable entry, and 0 the only value it takes.
+    if w.id.index == index::PRE_DEFINED_ERROR_FIELD {
+        return Some(WriteEffect::ClearErrorField);
+    }
     let axis = w.axis?;
     match w.name {
         "setpoint_position" => Some(WriteEffect::Setpoint {
@@ -187,6 +193,10 @@ pub struct LiveObjects {
     cycle_latency_max_us: Option<Handle>,
     cycle_latency_p99_us: Option<Handle>,
     wake_latency_max_us: Option<Handle>,
+    /// 1003h: sub 0, then one handle per entry.
+    error_field: [Option<Handle>; ERROR_FIELD_LEN + 1],
+    /// 2F01h: the entries' times, sub 1 first.
+    error_times: [Option<Handle>; ERROR_FIELD_LEN],
     axes: Vec<AxisObjects>,
 }
 
@@ -254,6 +264,12 @@ impl LiveObjects {
             cycle_latency_max_us: n("cycle_latency_max_us"),
             cycle_latency_p99_us: n("cycle_latency_p99_us"),
             wake_latency_max_us: n("wake_latency_max_us"),
+            error_field: std::array::from_fn(|sub| {
+                od.handle(ObjectId::new(index::PRE_DEFINED_ERROR_FIELD, sub as u8))
+            }),
+            error_times: std::array::from_fn(|i| {
+                od.handle(ObjectId::new(index::ERROR_FIELD_TIME, i as u8 + 1))
+            }),
             axes: (0..axes)
                 .map(|i| AxisObjects {
                     fault_state: a(i, "fault_state"),
@@ -319,6 +335,27 @@ impl LiveObjects {
             self.wake_latency_max_us,
             Value::Unsigned32(us(f.wake_latency_max_s)),
         );
+    }
+
+    /// Publish the pre-defined error field: the number of errors, the entries newest first,
+    /// and 0 in the subindexes past them; and the entries' times.
+    pub fn publish_error_field(&self, od: &mut ObjectDictionary, field: &ErrorField) {
+        let [count, entries @ ..] = &self.error_field;
+        if let Some(h) = count {
+            let _ = od.publish(*h, Value::Unsigned8(field.len() as u8));
+        }
+        for (i, h) in entries.iter().enumerate() {
+            if let Some(h) = h {
+                let value = field.get(i).map_or(0, |e| e.field());
+                let _ = od.publish(*h, Value::Unsigned32(value));
+            }
+        }
+        for (i, h) in self.error_times.iter().enumerate() {
+            if let Some(h) = h {
+                let time_s = field.get(i).map_or(0.0, |e| e.time_s);
+                let _ = od.publish(*h, Value::Real64(time_s));
+            }
+        }
     }
 
     /// Publish one axis' values from its cycle record.

@@ -15,7 +15,7 @@ use crate::canopen::{
     decode_heartbeat, decode_sync, encode_heartbeat, is_heartbeat, NmtCommand, NmtState,
     SyncCounter,
 };
-use crate::canopen::{ObjectDictionary, SdoServer};
+use crate::canopen::{ErrorField, ObjectDictionary, SdoServer};
 use crate::control::{BandStatus, ControllerError};
 use crate::device::{
     messages, CommandPdo, Emcy, FaultResetPdo, LoopStatusPdo, SensorPdo, SetpointPdo,
@@ -131,6 +131,12 @@ pub struct ControllerNode {
     builder: Option<SyncSender<BuildInput>>,
     /// Room for the staged writes of one parameter build; away while a build is out.
     batch: Option<Vec<PendingWrite>>,
+    /// The EMCYs sent, for 1003h and the state file.
+    error_field: ErrorField,
+    /// The field's change count the dictionary shows; None after the dictionary was replaced.
+    error_field_published: Option<u64>,
+    /// Unix time of the node's time 0, s: the time the error field gives each entry.
+    wall_clock_at_start_s: f64,
 }
 
 /// A configuration with its dictionary and axes built, ready to be swapped in at a cycle
@@ -236,7 +242,27 @@ impl ControllerNode {
             pending_reset: false,
             period_s,
             stage_clock: None,
+            error_field: ErrorField::default(),
+            error_field_published: None,
+            wall_clock_at_start_s: 0.0,
         })
+    }
+
+    /// The wall clock's Unix time at the node's time 0, so the error field's entries carry a
+    /// time a workshop can use; without it they carry the node's own time.
+    pub fn set_wall_clock_at_start(&mut self, unix_time_s: f64) {
+        self.wall_clock_at_start_s = unix_time_s;
+    }
+
+    /// The pre-defined error field (1003h): the EMCYs sent, newest first.
+    pub fn error_field(&self) -> &ErrorField {
+        &self.error_field
+    }
+
+    /// Take over the errors of an earlier run (the state file).
+    pub fn restore_error_field(&mut self, field: ErrorField) {
+        self.error_field = field;
+        self.error_field_published = None;
     }
 
     /// The layout a standard node of axis `index` was given and checked at start-up
@@ -712,8 +738,37 @@ impl ControllerNode {
         }
     }
 
-    /// Close the cycle: control every axis, send commands, EMCY and status, and record.
+    /// Close the cycle: control every axis, send commands, EMCY and status, and record. Every
+    /// EMCY sent goes into the pre-defined error field, which the dictionary then shows.
     pub fn finish_cycle(
+        &mut self,
+        now_s: f64,
+        timing: CycleTiming,
+        send: &mut dyn FnMut(&Frame),
+        record: &mut dyn FnMut(Record),
+    ) {
+        // Noted apart while the cycle runs (the node is borrowed), then added in order: a ring
+        // as large as the field holds every EMCY of the cycle that the field could keep.
+        let mut sent = ErrorField::default();
+        let (node_id, time_s) = (self.node_id, self.wall_clock_at_start_s + now_s);
+        let mut noting = |f: &Frame| {
+            if let Some(e) = crate::device::error_field_entry(f, node_id, time_s) {
+                sent.push(e);
+            }
+            send(f);
+        };
+        self.run_cycle(now_s, timing, &mut noting, record);
+        for e in sent.iter().rev() {
+            self.error_field.push(e);
+        }
+        if self.error_field_published != Some(self.error_field.changes()) {
+            self.live
+                .publish_error_field(&mut self.od, &self.error_field);
+            self.error_field_published = Some(self.error_field.changes());
+        }
+    }
+
+    fn run_cycle(
         &mut self,
         now_s: f64,
         timing: CycleTiming,
@@ -1135,6 +1190,7 @@ impl ControllerNode {
             WriteEffect::Node => {
                 self.heartbeat_every = cycles(self.config.node.heartbeat_period_s, self.period_s);
             }
+            WriteEffect::ClearErrorField => self.error_field.clear(),
             WriteEffect::Rebuild { .. } => {}
         }
     }
@@ -1241,6 +1297,7 @@ impl ControllerNode {
         // What was published stays readable, and writes staged meanwhile stay staged.
         self.od.carry_over_from(&mut prepared.od);
         std::mem::swap(&mut self.config, &mut prepared.config);
+        self.error_field_published = None;
         record(Record::Event(Event::Reloaded {
             t_s: now_s,
             axes_rebuilt: rebuilt,

@@ -8,14 +8,20 @@
 //! leaves either the old file or the new one, never half of one. At start-up the daemon reads
 //! the file back ([`load`]) and gives each axis what it learned ([`restore`]); an unreadable
 //! file is set aside as `<file>.rejected` and the axes learn again.
+//!
+//! The file also keeps the pre-defined error field (1003h): the EMCYs the daemon sent, newest
+//! first, each with its time. A change of the field is offered at once, not at the next
+//! interval, so an error (or a clear over SDO) is on disk before the next restart can lose it.
 
 use super::axis::Axis;
 use super::config::NominalParameters;
 use super::learned::AxisLearned;
 use super::node::ControllerNode;
+use crate::canopen::{ErrorEntry, ErrorField};
 use crate::control::{LearnedTable, LearnedTableState};
 use crate::supervise::{Nominal, PhysicalParameters, PHYSICAL_PARAMS};
 use serde::{Deserialize, Serialize};
+use std::cell::Cell;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, SyncSender, TrySendError};
@@ -50,6 +56,42 @@ pub struct StateFile {
     pub version: u32,
     #[serde(default)]
     pub axis: Vec<AxisState>,
+    /// The pre-defined error field (1003h), newest first.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub error_history: Vec<ErrorState>,
+}
+
+/// One entry of the error history: an EMCY the daemon sent.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ErrorState {
+    pub error_code: u16,
+    /// Bits 16..31 of the 1003h entry: the error register, and the axis node id above it.
+    pub additional_info: u16,
+    /// When the EMCY was sent: seconds since 1970-01-01 00:00 UTC, by the daemon's wall clock.
+    pub time_unix_s: f64,
+}
+
+impl ErrorState {
+    fn of(e: ErrorEntry) -> Self {
+        Self {
+            error_code: e.error_code,
+            additional_info: e.additional_info,
+            time_unix_s: e.time_s,
+        }
+    }
+
+    pub fn entry(&self) -> ErrorEntry {
+        ErrorEntry {
+            error_code: self.error_code,
+            additional_info: self.additional_info,
+            time_s: self.time_unix_s,
+        }
+    }
+}
+
+fn error_history(field: &ErrorField) -> Vec<ErrorState> {
+    field.iter().map(ErrorState::of).collect()
 }
 
 /// One axis in the file, found again by its name and actuator node id.
@@ -152,14 +194,21 @@ impl StateFile {
                     )
                 })
                 .collect(),
+            error_history: error_history(node.error_field()),
         }
+    }
+
+    /// The error history as the daemon's 1003h held it.
+    pub fn error_field(&self) -> ErrorField {
+        ErrorField::from_newest_first(self.error_history.iter().map(ErrorState::entry))
     }
 
     /// The file's text, with a header saying what it is.
     pub fn to_toml(&self) -> Result<String, toml::ser::Error> {
         Ok(format!(
-            "# actuatord: what the axes have learned. Written by the daemon (atomically);\n\
-             # edit only while it is stopped. Delete it to make every axis learn again.\n{}",
+            "# actuatord: what the axes have learned, and the daemon's error history (1003h).\n\
+             # Written by the daemon (atomically); edit only while it is stopped. Delete it to\n\
+             # make every axis learn again and forget the errors.\n{}",
             toml::to_string(self)?
         ))
     }
@@ -192,6 +241,21 @@ impl StateFile {
                 })?;
             }
         }
+        if let Some(i) = state
+            .error_history
+            .iter()
+            .position(|e| !e.time_unix_s.is_finite())
+        {
+            return Err(StateError::Invalid {
+                file: file.to_path_buf(),
+                key: format!(
+                    "{}[{i}].{}",
+                    crate::param_key!(StateFile, error_history),
+                    crate::param_key!(ErrorState, time_unix_s)
+                ),
+                rule: "must be a finite time".into(),
+            });
+        }
         Ok(state)
     }
 }
@@ -221,10 +285,20 @@ pub fn set_aside(file: &Path) -> Result<PathBuf, StateError> {
     Ok(aside)
 }
 
-/// Give each axis of `node` what the file holds for it (same name and actuator node id).
-/// Returns one line per axis restored, and per part that did not fit (another grid).
+/// Give each axis of `node` what the file holds for it (same name and actuator node id), and
+/// the node its error history. Returns one line per axis restored, and per part that did not
+/// fit (another grid), and one for the error history when it holds errors.
 pub fn restore(node: &mut ControllerNode, state: &StateFile, file: &Path) -> Vec<String> {
     let mut lines = Vec::new();
+    let field = state.error_field();
+    if !field.is_empty() {
+        lines.push(format!(
+            "{}: {} errors of earlier runs in the error history (1003h)",
+            file.display(),
+            field.len()
+        ));
+    }
+    node.restore_error_field(field);
     for axis in node.axes_mut() {
         let Some((i, s)) = state
             .axis
@@ -306,6 +380,7 @@ struct AxisSnapshot {
 pub struct Snapshot {
     axes: Vec<AxisSnapshot>,
     names: Vec<(String, u8)>,
+    errors: ErrorField,
 }
 
 impl Snapshot {
@@ -325,12 +400,14 @@ impl Snapshot {
                 .iter()
                 .map(|a| (a.name.clone(), a.actuator_node_id))
                 .collect(),
+            errors: *node.error_field(),
         }
     }
 
     /// Copy what the axes have learned now; allocation-free while the axes keep the grids the
     /// snapshot was sized for (a reload that changes a grid costs one allocation here).
     fn fill(&mut self, node: &ControllerNode) {
+        self.errors = *node.error_field();
         for (s, a) in self.axes.iter_mut().zip(node.axes()) {
             s.learned = a.learned();
             s.table_valid = match (s.table.as_mut(), a.learned_table()) {
@@ -361,6 +438,7 @@ impl Snapshot {
                     AxisState::from_axis(name, *node, &s.learned, table)
                 })
                 .collect(),
+            error_history: error_history(&self.errors),
         }
     }
 }
@@ -370,12 +448,19 @@ pub struct StateSink {
     full: SyncSender<Snapshot>,
     empty: Receiver<Snapshot>,
     every_cycles: u64,
+    /// The error field's change count in the last offer that reached the writer.
+    errors_offered: Cell<u64>,
 }
 
 impl StateSink {
     /// Cycles between offers.
     pub fn every_cycles(&self) -> u64 {
         self.every_cycles
+    }
+
+    /// Whether the node's error field changed since the last offer: an offer is due now.
+    pub fn errors_changed(&self, node: &ControllerNode) -> bool {
+        self.errors_offered.get() != node.error_field().changes()
     }
 
     /// Hand what the axes learned to the writer, if it has a free snapshot; never blocks.
@@ -385,7 +470,9 @@ impl StateSink {
         };
         snapshot.fill(node);
         match self.full.try_send(snapshot) {
-            Ok(()) | Err(TrySendError::Disconnected(_)) => {}
+            Ok(()) | Err(TrySendError::Disconnected(_)) => {
+                self.errors_offered.set(node.error_field().changes());
+            }
             // Cannot happen with two snapshots and a queue of two; dropping it loses one offer.
             Err(TrySendError::Full(_)) => {}
         }
@@ -436,6 +523,7 @@ impl StateWriter {
                 full: full_tx,
                 empty: empty_rx,
                 every_cycles: every_cycles.max(1),
+                errors_offered: Cell::new(node.error_field().changes()),
             },
             StateWriter { thread },
         ))
@@ -616,6 +704,67 @@ mod tests {
         let (sink, writer) = StateWriter::spawn(&file, &n, 1).expect("spawn");
         sink.finish(&n);
         assert_eq!(writer.finish().unchanged, 1);
+    }
+
+    #[test]
+    fn the_error_history_goes_through_the_file_newest_first_with_its_times() {
+        let mut n = node();
+        let mut field = ErrorField::default();
+        let entry = |code, info, t| ErrorEntry {
+            error_code: code,
+            additional_info: info,
+            time_s: t,
+        };
+        field.push(entry(0x8611, 0x1081, 1_700_000_000.25));
+        field.push(entry(0x8250, 0x1011, 1_700_000_060.5));
+        n.restore_error_field(field);
+        let text = StateFile::of_node(&n).to_toml().expect("toml");
+        let at = |needle: &str| {
+            text.find(needle)
+                .unwrap_or_else(|| panic!("{needle}: {text}"))
+        };
+        // 8250h = 33360 first, 8611h = 34321 after it.
+        assert!(
+            at("error_code = 33360") < at("error_code = 34321"),
+            "{text}"
+        );
+        assert!(text.contains("time_unix_s = 1700000060.5"), "{text}");
+        let back = StateFile::from_toml(&text, Path::new("s.toml")).expect("parses");
+        assert_eq!(
+            back.error_field().iter().collect::<Vec<_>>(),
+            field.iter().collect::<Vec<_>>()
+        );
+        let mut fresh = node();
+        let lines = restore(&mut fresh, &back, Path::new("s.toml"));
+        assert!(
+            lines
+                .iter()
+                .any(|l| l == "s.toml: 2 errors of earlier runs in the error history (1003h)"),
+            "{lines:?}"
+        );
+        assert_eq!(
+            fresh.error_field().iter().collect::<Vec<_>>(),
+            field.iter().collect::<Vec<_>>()
+        );
+        // A file from before the history reads as an empty one.
+        let old = StateFile::from_toml("version = 1\n", Path::new("s.toml")).expect("parses");
+        assert!(old.error_field().is_empty());
+
+        let bad = text.replace("1700000060.5", "nan");
+        let e = StateFile::from_toml(&bad, Path::new("/var/lib/actuatord/s.toml"))
+            .expect_err("no time");
+        assert_eq!(
+            e.to_string(),
+            "/var/lib/actuatord/s.toml: error_history[0].time_unix_s must be a finite time"
+        );
+        let bad = text.replace("error_code = 33360", "error_code = 70000");
+        let e = StateFile::from_toml(&bad, Path::new("/var/lib/actuatord/s.toml"))
+            .expect_err("16 bits");
+        assert!(
+            e.to_string().starts_with("/var/lib/actuatord/s.toml: "),
+            "{e}"
+        );
+        assert!(e.to_string().contains("error_code"), "{e}");
     }
 
     #[test]

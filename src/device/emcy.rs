@@ -5,7 +5,7 @@ use super::messages::EMCY;
 use super::pdo::{
     diagnosed_fault_code, diagnosed_fault_from_code, supervised_from, supervised_values,
 };
-use crate::canopen::Frame;
+use crate::canopen::{EmcyFrame, ErrorEntry, Frame};
 use crate::supervise::{FaultFlags, FaultKind, FaultState, SupervisedFault, SupervisedFaults};
 
 /// CiA 301 "error reset or no error".
@@ -67,6 +67,19 @@ impl Emcy {
             ..Default::default()
         }
     }
+}
+
+/// What the pre-defined error field (1003h) keeps of an EMCY `controller_node` sent: its error
+/// code, and as additional information its error register (bits 16..23 of the entry) and axis
+/// node id (bits 24..31; 0 for the daemon itself or its bus). An "error reset" is no error and
+/// is not kept; nor is any other frame.
+pub fn error_field_entry(frame: &Frame, controller_node: u8, time_s: f64) -> Option<ErrorEntry> {
+    let e = EmcyFrame::decode(frame, controller_node)?;
+    (e.error_code != ERROR_RESET).then_some(ErrorEntry {
+        error_code: e.error_code,
+        additional_info: u16::from_le_bytes([e.error_register, e.manufacturer[0]]),
+        time_s,
+    })
 }
 
 /// CiA 301 error register (object 1001h) bits for a set of faults.

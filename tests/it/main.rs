@@ -17,6 +17,7 @@ mod dbc;
 mod deb;
 mod declared_section;
 mod demo;
+mod error_history;
 mod friction_stick_slip;
 mod intel_bench;
 mod intel_daemon;

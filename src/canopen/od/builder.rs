@@ -195,6 +195,26 @@ impl ObjectDictionaryBuilder {
         self
     }
 
+    /// An ARRAY whose subindex 0 is an entry of its own, e.g. the number of errors of the
+    /// pre-defined error field (1003h), which a write of 0 clears.
+    pub fn array_counted(
+        mut self,
+        index: u16,
+        name: impl Into<String>,
+        sub0: EntrySpec,
+        entries: Vec<EntrySpec>,
+    ) -> Self {
+        self.objects.push(ObjectSpec {
+            index,
+            name: name.into(),
+            kind: ObjectKind::Array,
+            axis: None,
+            entries,
+            sub0: Some(sub0),
+        });
+        self
+    }
+
     /// Require `low < high` for every write to either (both must be numeric entries).
     pub fn ordered(mut self, low: ObjectId, high: ObjectId) -> Self {
         self.ordered.push((low, high));

@@ -479,6 +479,13 @@ fn check_bounds(entry: &Entry, value: &Value) -> Result<(), OdError> {
     if v.is_nan() {
         return Err(OdError::OutOfRange);
     }
+    // An entry that takes one value only (1003h sub 0 takes 0, to clear the field) has no
+    // "too high" or "too low": any other value is simply invalid.
+    if let (Some(min), Some(max)) = (entry.min, entry.max) {
+        if min == max && min.as_f64() != Some(v) {
+            return Err(OdError::OutOfRange);
+        }
+    }
     if let Some(min) = entry.min.as_ref().and_then(Value::as_f64) {
         if v < min {
             return Err(OdError::TooLow);

@@ -205,3 +205,46 @@ fn object_ids_parse_and_print_in_hex() {
     assert_eq!(ObjectId::parse("1000"), None);
     assert_eq!(ObjectId::new(0x2001, 13).to_string(), "2001:0D");
 }
+
+#[test]
+fn a_counted_array_takes_only_the_value_its_sub_0_admits() {
+    // 1003h's layout: sub 0 the number of errors, which only 0 may be written to (a clear).
+    let mut od = ObjectDictionary::builder()
+        .array_counted(
+            0x1003,
+            "pre_defined_error_field",
+            EntrySpec::rw("number_of_errors", 0u8)
+                .range(Some(Value::Unsigned8(0)), Some(Value::Unsigned8(0))),
+            vec![
+                EntrySpec::ro("error_1", 0u32),
+                EntrySpec::ro("error_2", 0u32),
+            ],
+        )
+        .build()
+        .expect("valid table");
+    assert_eq!(
+        od.object(0x1003).map(|o| o.kind),
+        Some(ObjectKind::Array),
+        "an ARRAY"
+    );
+    let sub0 = ObjectId::new(0x1003, 0);
+    let h = od.handle(sub0).expect("sub 0");
+    od.publish(h, Value::Unsigned8(2))
+        .expect("the node sets the count");
+    for refused in [1u8, 2, 255] {
+        assert_eq!(
+            od.stage_write(sub0, &[refused], OP),
+            Err(OdError::OutOfRange),
+            "{refused}: invalid, neither too high nor too low"
+        );
+    }
+    assert!(od.pending_writes().is_empty());
+    assert_eq!(
+        od.stage_write(ObjectId::new(0x1003, 1), &[0; 4], OP),
+        Err(OdError::ReadOnly)
+    );
+    od.stage_write(sub0, &[0], OP).expect("0 is taken");
+    assert_eq!(od.read(sub0), Ok(Value::Unsigned8(2)), "until the boundary");
+    assert_eq!(od.take_pending_writes().count(), 1);
+    assert_eq!(od.read(sub0), Ok(Value::Unsigned8(0)));
+}

@@ -5,7 +5,7 @@
 //!
 //! | index | object |
 //! |---|---|
-//! | 1000h, 1001h, 1008h, 100Ah, 1016h, 1017h, 1018h, 1200h | CiA 301 communication objects |
+//! | 1000h, 1001h, 1003h, 1008h, 100Ah, 1016h, 1017h, 1018h, 1200h | CiA 301 communication objects |
 //! | 2000h + 100h·axis + 00h | axis: name, actuator node id, command kind, safe command |
 //! | … + 01h | controller: q0..q5, p1..p6, output limits |
 //! | … + 02h | friction compensation |
@@ -16,6 +16,7 @@
 //! | … + 10h | learned parameters (results of identification and adaptation, read-only) |
 //! | … + 11h | diagnosis: estimates, nominal values, symptoms, observer bands (read-only) |
 //! | 2F00h | loop statistics of the cycle (node-wide: one cycle serves every axis) |
+//! | 2F01h | the time of each entry of 1003h |
 //!
 //! The protocol layer does not read the daemon's configuration: the runtime fills
 //! [`DeviceParameters`] and [`AxisParameters`] from it, and a tool that only needs the types
@@ -26,6 +27,7 @@ use super::axis_keys::{AxisKeys, SetpointKeys};
 use crate::canopen::od::{
     BuildError, EntrySpec, ObjectDictionary, ObjectDictionaryBuilder, ObjectId, Value,
 };
+use crate::canopen::ERROR_FIELD_LEN;
 use crate::control::{ControllerSection, FrictionCompensationSection};
 use crate::supervise::LimitsSection;
 
@@ -36,6 +38,7 @@ pub const MAX_AXES: usize = 15;
 pub mod index {
     pub const DEVICE_TYPE: u16 = 0x1000;
     pub const ERROR_REGISTER: u16 = 0x1001;
+    pub const PRE_DEFINED_ERROR_FIELD: u16 = 0x1003;
     pub const DEVICE_NAME: u16 = 0x1008;
     pub const SOFTWARE_VERSION: u16 = 0x100A;
     pub const CONSUMER_HEARTBEAT_TIME: u16 = 0x1016;
@@ -55,6 +58,7 @@ pub mod index {
     pub const LEARNED: u16 = 0x10;
 
     pub const LOOP_STATISTICS: u16 = 0x2F00;
+    pub const ERROR_FIELD_TIME: u16 = 0x2F01;
 
     /// Index of `offset` in the block of `axis` (0-based).
     pub const fn axis(axis: usize, offset: u16) -> u16 {
@@ -228,6 +232,50 @@ const AXIS_NAMES: [&str; MAX_AXES] = [
     "axis10", "axis11", "axis12", "axis13", "axis14",
 ];
 
+/// The entries of 1003h after sub 0, newest first.
+const ERROR_FIELD_NAMES: [&str; ERROR_FIELD_LEN] = [
+    "error_1", "error_2", "error_3", "error_4", "error_5", "error_6", "error_7", "error_8",
+    "error_9", "error_10", "error_11", "error_12", "error_13", "error_14", "error_15", "error_16",
+];
+
+/// The entries of 2F01h, one per entry of 1003h.
+const ERROR_TIME_NAMES: [&str; ERROR_FIELD_LEN] = [
+    "time_1", "time_2", "time_3", "time_4", "time_5", "time_6", "time_7", "time_8", "time_9",
+    "time_10", "time_11", "time_12", "time_13", "time_14", "time_15", "time_16",
+];
+
+/// The pre-defined error field, 1003h, and the time of each of its entries, 2F01h (CiA 301
+/// has no place for it): empty at build; the node publishes what it holds.
+fn error_field(b: ObjectDictionaryBuilder) -> ObjectDictionaryBuilder {
+    let times = ERROR_TIME_NAMES
+        .into_iter()
+        .map(|name| {
+            EntrySpec::ro(name, 0.0f64).unit("s").doc(
+                "when the EMCY at the same subindex of 1003h went out: Unix time by the \
+                 daemon's wall clock; 0 past the errors held",
+            )
+        })
+        .collect();
+    let entries = ERROR_FIELD_NAMES
+        .into_iter()
+        .map(|name| {
+            EntrySpec::ro(name, 0u32).doc(
+                "an EMCY the daemon sent, newest at sub 1: error code in bits 0..15, error \
+                 register in bits 16..23, axis node id in bits 24..31 (0: the daemon or the bus)",
+            )
+        })
+        .collect();
+    b.array_counted(
+        index::PRE_DEFINED_ERROR_FIELD,
+        "pre_defined_error_field",
+        EntrySpec::rw("number_of_errors", 0u8)
+            .range(Some(Value::Unsigned8(0)), Some(Value::Unsigned8(0)))
+            .doc("errors held (kept across restarts with a state file); write 0 to clear them"),
+        entries,
+    )
+    .array(index::ERROR_FIELD_TIME, "error_history_time", None, times)
+}
+
 /// 1016h entry: actuator node id in bits 16..23, time in ms in bits 0..15 (0 = not watched).
 pub fn consumer_heartbeat_entry(node_id: u8, timeout_s: f64) -> u32 {
     let ms = if timeout_s.is_finite() && timeout_s > 0.0 {
@@ -319,6 +367,7 @@ pub fn daemon_dictionary(
                 EntrySpec::ro("cob_id_server_to_client", sdo_tx),
             ],
         );
+    b = error_field(b);
     if !axes.is_empty() {
         let entries = axes
             .iter()
