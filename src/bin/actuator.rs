@@ -2,6 +2,8 @@
 
 #[path = "actuator/choice.rs"]
 mod choice;
+#[path = "actuator/faults.rs"]
+mod faults;
 #[path = "actuator/lab.rs"]
 mod lab;
 
@@ -177,6 +179,20 @@ enum Command {
         timeout_s: f64,
         #[command(subcommand)]
         op: SdoOp,
+    },
+    /// The daemon's error history (1003h, with each entry's time), newest first: read from a
+    /// running daemon over SDO, or with --state from its state file.
+    Faults {
+        #[arg(long, default_value = "vcan0")]
+        iface: String,
+        /// The daemon's node id.
+        #[arg(long, default_value_t = 1)]
+        node: u8,
+        #[arg(long, default_value_t = 1.0)]
+        timeout_s: f64,
+        /// Read the daemon's state file (`[state] file`) instead of asking the daemon.
+        #[arg(long)]
+        state: Option<PathBuf>,
     },
     /// Decode a candump log (`candump -L`) into named signals with the protocol's table.
     Decode {
@@ -651,6 +667,29 @@ fn run(args: Args) -> anyhow::Result<()> {
             timeout_s,
             op,
         } => sdo(&iface, node, &config, timeout_s, op),
+        Command::Faults {
+            iface,
+            node,
+            timeout_s,
+            state,
+        } => {
+            let (source, entries) = match state {
+                Some(file) => (file.display().to_string(), faults::from_state_file(&file)?),
+                None => {
+                    anyhow::ensure!(
+                        timeout_s > 0.0 && timeout_s.is_finite(),
+                        "--timeout-s must be > 0, got {timeout_s}"
+                    );
+                    let timeout = Duration::from_secs_f64(timeout_s);
+                    (
+                        format!("node {node} on {iface}"),
+                        faults::from_daemon(&iface, node, timeout)?,
+                    )
+                }
+            };
+            print!("{}", faults::render(&source, &entries));
+            Ok(())
+        }
         Command::Decode {
             log,
             controller_node,

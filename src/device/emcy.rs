@@ -5,6 +5,7 @@ use super::messages::EMCY;
 use super::pdo::{
     diagnosed_fault_code, diagnosed_fault_from_code, supervised_from, supervised_values,
 };
+use crate::bus::BusFault;
 use crate::canopen::{EmcyFrame, ErrorEntry, Frame};
 use crate::supervise::{FaultFlags, FaultKind, FaultState, SupervisedFault, SupervisedFaults};
 
@@ -80,6 +81,64 @@ pub fn error_field_entry(frame: &Frame, controller_node: u8, time_s: f64) -> Opt
         additional_info: u16::from_le_bytes([e.error_register, e.manufacturer[0]]),
         time_s,
     })
+}
+
+/// What an error code the daemon sends means: the fault, diagnosis, watchdog or bus fault it
+/// announces (the axis node id tells a bus fault, axis 0, from an axis' fault of the same
+/// code), else the CiA 301 class of the code (a drive's own code, 603Fh).
+pub fn error_code_meaning(code: u16, axis_node_id: u8) -> String {
+    const BUS_FAULTS: [BusFault; 9] = [
+        BusFault::Overflow,
+        BusFault::ErrorPassive,
+        BusFault::BusOff,
+        BusFault::InterfaceDown,
+        BusFault::InterfaceGone,
+        BusFault::TransmitQueueFull,
+        BusFault::ErrorWarning,
+        BusFault::NoAcknowledge,
+        BusFault::Io(0),
+    ];
+    if axis_node_id == 0 {
+        if let Some(f) = BUS_FAULTS.iter().find(|f| f.emcy_code() == code) {
+            return format!("bus fault: {}", f.name());
+        }
+    }
+    if let Some(k) = FaultKind::ALL.iter().find(|k| error_code(**k) == code) {
+        return format!("fault: {}", k.name());
+    }
+    if let Some(f) = SupervisedFault::ALL
+        .iter()
+        .find(|f| supervised_error_code(**f) == code)
+    {
+        return format!("diagnosis: {}", f.name());
+    }
+    if code == SETPOINT_TIMEOUT {
+        return "set-point timeout: no set-point from the commander".into();
+    }
+    for (pressure, low) in [(false, true), (false, false), (true, true), (true, false)] {
+        if supply_band_code(pressure, low) == code {
+            return format!(
+                "warning: supply {} {} its scheduled band",
+                if pressure { "pressure" } else { "voltage" },
+                if low { "below" } else { "above" }
+            );
+        }
+    }
+    let class = match code >> 8 {
+        0x00 => "error reset or no error",
+        0x10 => "generic error",
+        0x20..=0x2F => "current",
+        0x30..=0x3F => "voltage",
+        0x40..=0x4F => "temperature",
+        0x50..=0x5F => "device hardware",
+        0x60..=0x6F => "device software",
+        0x70..=0x7F => "additional modules",
+        0x80..=0x8F => "monitoring",
+        0x90..=0x9F => "external error",
+        0xF0..=0xFE => "additional functions",
+        _ => "device specific",
+    };
+    format!("CiA 301 class: {class}")
 }
 
 /// CiA 301 error register (object 1001h) bits for a set of faults.

@@ -17,8 +17,8 @@ pub mod profile;
 pub use codec::{check_length, pack, unpack, DecodeError};
 pub use decode::{decode_frame, DecodedSignal};
 pub use emcy::{
-    error_code, error_field_entry, error_register, supervised_error_code, supply_band_code, Emcy,
-    ERROR_RESET,
+    error_code, error_code_meaning, error_field_entry, error_register, supervised_error_code,
+    supply_band_code, Emcy, ERROR_RESET,
 };
 pub use messages::{Message, FAULT_FLAG_NAMES, SUPERVISED_FLAG_NAMES, SYMPTOM_NAMES};
 pub use pdo::{

@@ -272,3 +272,57 @@ fn a_simulated_drive_without_a_plant_file_picks_one_it_can_command() {
         );
     }
 }
+
+#[test]
+fn faults_prints_a_state_files_history_and_names_a_file_it_cannot_use() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let file = dir.path().join("state.toml");
+    std::fs::write(
+        &file,
+        "version = 1\n\n[[error_history]]\nerror_code = 33360\nadditional_info = 4113\n\
+         time_unix_s = 1700000060.5\n\n[[error_history]]\nerror_code = 8976\n\
+         additional_info = 4099\ntime_unix_s = 1700000000.0\n",
+    )
+    .expect("write");
+    let out = Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .args(["faults", "--state"])
+        .arg(&file)
+        .output()
+        .expect("actuator runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(
+        lines[0].ends_with("state.toml: 2 errors in the history (1003h), newest first"),
+        "{text}"
+    );
+    assert!(
+        lines[2].starts_with("  1  8250h  11h         16  2023-11-14 22:14:20.500 UTC"),
+        "{text}"
+    );
+    assert!(
+        lines[3].starts_with("  2  2310h  03h         16  2023-11-14 22:13:20.000 UTC"),
+        "{text}"
+    );
+    assert!(lines[3].ends_with("fault: overcurrent"), "{text}");
+
+    std::fs::write(
+        &file,
+        "version = 1\n[[error_history]]\nerror_code = 70000\n",
+    )
+    .expect("write");
+    for missing in [file.clone(), dir.path().join("none.toml")] {
+        let out = Command::new(env!("CARGO_BIN_EXE_actuator"))
+            .args(["faults", "--state"])
+            .arg(&missing)
+            .output()
+            .expect("actuator runs");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success());
+        assert!(err.contains(&missing.display().to_string()), "{err}");
+    }
+}
