@@ -1737,3 +1737,173 @@ fn a_restarted_daemon_records_a_new_file_and_both_read_back() {
         runs[1]
     );
 }
+
+/// Wall-clock Unix time, s.
+fn unix_now_s() -> f64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64())
+}
+
+/// `actuator faults` with `args`; its output, after checking it succeeded.
+fn faults(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_actuator"))
+        .arg("faults")
+        .args(args)
+        .output()
+        .expect("actuator faults runs");
+    assert!(
+        out.status.success(),
+        "actuator faults {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).to_string()
+}
+
+#[test]
+#[ignore = "needs vcan0, candump and cansend: run through scripts/vcan-run (scripts/test does)"]
+fn a_fault_raised_and_cleared_is_read_from_1003h_after_a_restart() {
+    use actuatord::daemon::state;
+
+    let dir = tempfile::tempdir().expect("tempdir");
+    let config = dir.path().join("errors.toml");
+    let text = std::fs::read_to_string(root("config/solenoid.toml")).expect("config");
+    std::fs::write(
+        &config,
+        format!(
+            "{text}\n[axis.setpoint_timeout]\ntimeout_s = 0.2\nreaction = \"hold\"\n\n\
+             [state]\nfile = \"state.toml\"\nsave_interval_s = 60.0\n"
+        ),
+    )
+    .expect("write config");
+    let file = dir.path().join("state.toml");
+    let capture_path = dir.path().join("capture.log");
+    let mut candump = candump_to(&capture_path);
+    let mut watch = CaptureWatch::new(&capture_path);
+    let mut sim = sim_node(&[]);
+    watch.wait_for_node(None, 16);
+    let daemon = || {
+        Proc(
+            Command::new(env!("CARGO_BIN_EXE_actuatord"))
+                .arg("--config")
+                .arg(&config)
+                .args(["--iface", &iface(), "--duration-s", "300"])
+                .spawn()
+                .expect("actuatord starts"),
+        )
+    };
+    let stop = |mut d: Proc| {
+        interrupt(&mut d);
+        let status = d.0.wait().expect("actuatord ends");
+        assert!(status.success(), "actuatord: {status}");
+    };
+    // EMCYs of the controller (node 1) captured after the first `from` records, by code.
+    let emcy_after = |from: usize, code: u16| {
+        move |r: &[actuatord::bus::CandumpRecord]| {
+            r.iter()
+                .skip(from)
+                .filter(|rec| rec.frame.id() == 0x081)
+                .filter_map(|rec| Emcy::decode(&rec.frame).ok())
+                .find(|e| e.error_code == code)
+                .ok_or_else(|| format!("{} frames, no EMCY {code:04X}h", r.len()))
+        }
+    };
+
+    // First run: the commander (cansend) sends one set-point and goes quiet: EMCY 8250h after
+    // the timeout; its next set-point ends it with EMCY 0000h.
+    let before = unix_now_s();
+    let first = daemon();
+    watch.wait_for_syncs(200);
+    cansend(&format!("201#{}10", hex_le(40_000)));
+    let lost = watch.wait("EMCY 8250h", emcy_after(0, 0x8250));
+    let seen_after = unix_now_s();
+    let mark = watch.records().len();
+    cansend(&format!("201#{}10", hex_le(50_000)));
+    watch.wait("EMCY 0000h", emcy_after(mark, 0x0000));
+    stop(first);
+    let kept = state::load(&file).expect("readable").expect("written");
+    let newest = kept.error_history.first().copied().expect("kept");
+    eprintln!(
+        "vcan: error history in the state file: {:?}",
+        kept.error_history
+    );
+    assert_eq!(newest.error_code, 0x8250);
+    assert_eq!(
+        newest.additional_info,
+        u16::from_le_bytes([lost.error_register, 16])
+    );
+    assert!(
+        (before..=seen_after).contains(&newest.time_unix_s),
+        "sent at {} by the daemon's wall clock, between {before} and {seen_after}",
+        newest.time_unix_s
+    );
+    let printed = faults(&["--state", file.to_str().expect("utf-8 path")]);
+    eprintln!("vcan: actuator faults --state:\n{printed}");
+    assert!(printed.contains("  1  8250h  "), "{printed}");
+    assert!(printed.contains("set-point timeout"), "{printed}");
+
+    // Second run: the history is back in 1003h, as another CANopen stack reads it.
+    let second = daemon();
+    let syncs = watch.syncs();
+    watch.wait_for_syncs(syncs + 200);
+    let printed = faults(&["--iface", &iface(), "--timeout-s", "5"]);
+    eprintln!("vcan: actuator faults from the daemon:\n{printed}");
+    assert!(printed.contains("  1  8250h  "), "{printed}");
+    let script = format!(
+        r#"import canopen
+net = canopen.Network()
+net.connect(interface="socketcan", channel="{iface}")
+node = net.add_node(1, "{eds}")
+node.sdo.RESPONSE_TIMEOUT = 2.0
+node.sdo.MAX_RETRIES = 3
+field = node.sdo[0x1003]
+count = field[0].raw
+entries = ["%08X" % field[sub].raw for sub in range(1, count + 1)]
+time = node.sdo["error_history_time"]["time_1"].raw
+node.sdo[0x1003][0].raw = 0
+try:
+    node.sdo[0x1003][0].raw = 3
+    refused = "none"
+except canopen.SdoAbortedError as e:
+    refused = "%08X" % e.code
+print(count, ",".join(entries), repr(time), refused)
+net.disconnect()
+"#,
+        iface = iface(),
+        eds = root("dbc/actuatord.eds").display(),
+    );
+    let py = Command::new("python3")
+        .args(["-c", &script])
+        .output()
+        .expect("python3 runs");
+    let py_out = String::from_utf8_lossy(&py.stdout).trim().to_string();
+    eprintln!(
+        "vcan: python canopen: count, 1003h entries, 2F01h sub 1, write of 3: {py_out}{}",
+        String::from_utf8_lossy(&py.stderr).trim()
+    );
+    assert!(
+        py.status.success(),
+        "{}",
+        String::from_utf8_lossy(&py.stderr)
+    );
+    let fields: Vec<&str> = py_out.split(' ').collect();
+    let [count, entries, time, refused] = fields[..] else {
+        panic!("python printed {py_out:?}");
+    };
+    assert_eq!(count, kept.error_history.len().to_string());
+    let first_entry = entries.split(',').next().unwrap_or_default();
+    assert_eq!(
+        first_entry,
+        format!("{:04X}{:04X}", newest.additional_info, newest.error_code)
+    );
+    assert_eq!(time.parse::<f64>().ok(), Some(newest.time_unix_s));
+    assert_eq!(refused, "06090030");
+    // The clear is kept too.
+    stop(second);
+    let kept = state::load(&file).expect("readable").expect("written");
+    assert!(kept.error_history.is_empty(), "{:?}", kept.error_history);
+    interrupt(&mut sim);
+    let _ = sim.0.wait();
+    interrupt(&mut candump);
+    let _ = candump.0.wait();
+}
