@@ -1,12 +1,34 @@
 //! The simulated node's runtime: frames from a bus into the node, heartbeats on time.
 
 use super::node::{SimEvent, SimNode};
-use crate::bus::{Bus, BusError, BusEvent, BusFault};
+use crate::bus::{Bus, BusError, BusEvent, BusFault, Frame};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// While the bus is lost, it is tried this often (a real node's controller restarts as often).
 const BUS_RETRY: Duration = Duration::from_millis(10);
+
+/// The frames a node answers one call with, at most four (a real node's transmit queue; more
+/// are dropped), sent after the call so the node is not borrowed while the bus is.
+#[derive(Default)]
+struct Outbox {
+    frames: [Option<Frame>; 4],
+    n: usize,
+}
+
+impl Outbox {
+    fn push(&mut self, frame: &Frame) {
+        if let Some(slot) = self.frames.get_mut(self.n) {
+            *slot = Some(*frame);
+            self.n += 1;
+        }
+    }
+
+    /// Send them in order; the first failure stops the rest.
+    fn send(&self, bus: &mut dyn Bus) -> Result<(), BusError> {
+        self.frames.iter().flatten().try_for_each(|f| bus.send(f))
+    }
+}
 
 /// Run `node` on `bus` until `stop` is set, `duration` has passed, or every other node is gone.
 /// A failing bus is waited for, as a real node's CAN controller would: the node keeps its plant
@@ -87,21 +109,12 @@ pub fn run_sim_node(
             wake.min(start + Duration::from_secs_f64(d.max(0.0)) + Duration::from_micros(100))
         });
         let event = bus.recv_until(wake);
-        let mut out = [None; 4];
-        let mut n = 0;
-        node.poll(start.elapsed().as_secs_f64(), &mut |f| {
-            if n < out.len() {
-                out[n] = Some(*f);
-                n += 1;
-            }
-        });
-        for f in out.iter().flatten() {
-            if let Err(e) = bus.send(f) {
-                match fail(e, on_event) {
-                    Some(l) => lost = Some(l),
-                    None => return Ok(()),
-                }
-                break;
+        let mut out = Outbox::default();
+        node.poll(start.elapsed().as_secs_f64(), &mut |f| out.push(f));
+        if let Err(e) = out.send(bus) {
+            match fail(e, on_event) {
+                Some(l) => lost = Some(l),
+                None => return Ok(()),
             }
         }
         let event = match event {
@@ -117,25 +130,12 @@ pub fn run_sim_node(
         };
         match event {
             Some(BusEvent::Frame(frame)) => {
-                let mut out = [None; 4];
-                let mut n = 0;
-                node.handle(
-                    &frame,
-                    &mut |f| {
-                        if n < out.len() {
-                            out[n] = Some(*f);
-                            n += 1;
-                        }
-                    },
-                    on_event,
-                );
-                for f in out.iter().flatten() {
-                    if let Err(e) = bus.send(f) {
-                        match fail(e, on_event) {
-                            Some(l) => lost = Some(l),
-                            None => return Ok(()),
-                        }
-                        break;
+                let mut out = Outbox::default();
+                node.handle(&frame, &mut |f| out.push(f), on_event);
+                if let Err(e) = out.send(bus) {
+                    match fail(e, on_event) {
+                        Some(l) => lost = Some(l),
+                        None => return Ok(()),
                     }
                 }
             }

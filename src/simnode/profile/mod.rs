@@ -1138,12 +1138,11 @@ mod tests {
     use crate::device::profile::mapping::sign_extend;
 
     fn sdo_write(n: &mut ProfileNode, index: u16, sub: u8, value: u32, size: usize) -> Frame {
-        let mut d = [0u8; 8];
-        d[0] = 0x23 | (((4 - size) as u8) << 2);
-        d[1..3].copy_from_slice(&index.to_le_bytes());
-        d[3] = sub;
-        d[4..8].copy_from_slice(&value.to_le_bytes());
-        let req = Frame::new(0x600 + u32::from(n.node_id), &d).expect("frame");
+        let (_, req) = crate::canopen::sdo::Expedited::write(
+            n.node_id,
+            ObjectId::new(index, sub),
+            &value.to_le_bytes()[..size],
+        );
         let mut out = vec![];
         n.handle(&req, NmtState::PreOperational, &mut |f| out.push(*f));
         out[0]
