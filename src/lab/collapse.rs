@@ -6,7 +6,8 @@
 //! `fit` refuses to write such a model, `diagnose` does not call its candidate
 //! significant, and `discover` does not take the rung.
 
-use super::regress::IdFit;
+use super::data::Dataset;
+use super::regress::{balance, Balance, IdFit};
 use super::signals::Prepared;
 use crate::physics::PlantSpec;
 
@@ -50,6 +51,29 @@ pub fn collapsed(
              collapsed, the data do not determine it with this model"
         )
         })
+}
+
+/// Why a fit may not stand, or `None`: [`collapsed`], then [`drive_vanished`], then
+/// [`below_noise`] on `fit` (the fitted balance's residual, where there is one). The one check
+/// `fit` applies before it writes, `diagnose` before it calls a candidate significant and
+/// `discover` before it takes a rung.
+#[allow(clippy::too_many_arguments)]
+pub fn refused(
+    given: &PlantSpec,
+    fitted: &PlantSpec,
+    nrmse: f64,
+    base: Option<&PlantSpec>,
+    fit: Option<&IdFit>,
+    data: &Dataset,
+    d: &Prepared,
+) -> anyhow::Result<Option<String>> {
+    if let Some(why) = collapsed(given, fitted, nrmse, base) {
+        return Ok(Some(why));
+    }
+    if let Some(why) = drive_vanished(fitted, base, data, d)? {
+        return Ok(Some(why));
+    }
+    Ok(fit.and_then(|f| below_noise(f, d)))
 }
 
 /// Share of the acceleration noise ([`Prepared::acceleration_noise`]) below which a fit's
@@ -106,6 +130,91 @@ pub fn at_bound(given: &PlantSpec, fitted: &PlantSpec, base: Option<&PlantSpec>)
         }
     }
     names
+}
+
+/// Share of its base's drive force, per direction of motion, below which a fit's drive counts
+/// as gone: the command no longer moves the body that way in the model.
+pub const DRIVE_LEFT: f64 = 0.2;
+
+/// RMS of the force the command puts into `spec`'s balance, over its samples moving positive and
+/// over those moving negative: the balance at the model's coefficients less the same balance
+/// with the command held at zero, so that every stage of the drive (a gain per direction, a dead
+/// zone, a saturation) is counted as the model has it.
+pub fn drive_per_direction(
+    spec: &PlantSpec,
+    data: &Dataset,
+    d: &Prepared,
+) -> anyhow::Result<[f64; 2]> {
+    let driven = balance(spec, data, d)?;
+    let mut quiet = data.clone();
+    quiet.input.iter_mut().for_each(|u| *u = 0.0);
+    let mut quiet_d = d.clone();
+    quiet_d.u.iter_mut().for_each(|u| *u = 0.0);
+    let idle = balance(spec, &quiet, &quiet_d)?;
+    let force = |b: &Balance, k: usize| b.terms.iter().map(|t| t.value * t.col[k]).sum::<f64>();
+    let (mut sq, mut count) = ([0.0; 2], [0usize; 2]);
+    for &k in &driven.index {
+        let side = match d.v[k] {
+            v if v > 0.0 => 0,
+            v if v < 0.0 => 1,
+            _ => continue,
+        };
+        let f = force(&driven, k) - force(&idle, k);
+        if f.is_finite() {
+            sq[side] += f * f;
+            count[side] += 1;
+        }
+    }
+    Ok([0, 1].map(|s| (sq[s] / count[s].max(1) as f64).sqrt()))
+}
+
+/// Why `fitted` collapsed by letting the body move one way without its drive, or `None`: its
+/// drive force on one direction of motion fell below [`DRIVE_LEFT`] of `base`'s (the fit it was
+/// refitted from; without one, the body of `fitted` with no effect). The motion then has to be
+/// explained by the other forces alone, and on a record where they balance the drive (steady
+/// strokes against friction) a model whose drive and friction both vanish coasts: its balance
+/// closes at a smaller scale and it predicts a steady speed well, but it is not the machine.
+pub fn drive_vanished(
+    fitted: &PlantSpec,
+    base: Option<&PlantSpec>,
+    data: &Dataset,
+    d: &Prepared,
+) -> anyhow::Result<Option<String>> {
+    let plain;
+    let reference = match base {
+        Some(b) => b,
+        None => {
+            let mut p = fitted.clone();
+            p.effects.clear();
+            plain = p;
+            &plain
+        }
+    };
+    // A model the inverse-dynamics balance cannot hold (a motor_gear, an effect fitted by
+    // simulation alone) is judged by its own fit's checks.
+    let (Ok(now), Ok(before)) = (
+        drive_per_direction(fitted, data, d),
+        drive_per_direction(reference, data, d),
+    ) else {
+        return Ok(None);
+    };
+    Ok(["positive", "negative"]
+        .iter()
+        .zip(now.iter().zip(&before))
+        .find(|(_, (&n, &b))| b > 0.0 && n < DRIVE_LEFT * b)
+        .map(|(side, (n, b))| {
+            format!(
+                "the drive's force on {side} motion fell to {:.0} % of {} ({n:.3e} against \
+                 {b:.3e} RMS): the fit lets the body move that way without the force that \
+                 moves it, the drive and what it works against vanishing together",
+                100.0 * n / b,
+                if base.is_some() {
+                    "its base's"
+                } else {
+                    "the body's alone"
+                }
+            )
+        }))
 }
 
 #[cfg(test)]
@@ -189,5 +298,56 @@ mod tests {
         assert_eq!(collapsed(&given, &fitted, 0.05, Some(&fitted)), None);
         let why = collapsed(&given, &given, 3.4e-15, None).expect("rounding");
         assert!(why.contains("vanished"), "{why}");
+    }
+
+    #[test]
+    fn a_drive_gone_on_one_side_is_a_collapse_and_a_reduced_one_is_not() {
+        use crate::lab::signals::prepare;
+        use crate::physics::EffectKind;
+        let (spec, data) = record(0.0);
+        let prep = prepare(&data, None);
+        // The body alone drives both ways as its record was made.
+        assert_eq!(
+            drive_vanished(&spec, None, &data, &prep).expect("balances"),
+            None
+        );
+        let mut asym = spec.clone();
+        asym.add_effect(EffectKind::DirectionAsymmetry)
+            .expect("known");
+        let [pos, neg] = drive_per_direction(&asym, &data, &prep).expect("balances");
+        assert!(pos > 1.0 && neg > 1.0, "{pos} {neg}");
+        // Half the gain on negative motion halves the drive there: a weaker drive, not a gone one.
+        asym.set("direction_asymmetry.gain_neg", 0.5)
+            .expect("admissible");
+        let [_, half] = drive_per_direction(&asym, &data, &prep).expect("balances");
+        assert!((half / neg - 0.5).abs() < 1e-6, "{half} against {neg}");
+        assert_eq!(
+            drive_vanished(&asym, Some(&spec), &data, &prep).expect("balances"),
+            None
+        );
+        // No gain there: the body moves that way with no drive in the model.
+        asym.set("direction_asymmetry.gain_neg", 0.0)
+            .expect("admissible");
+        let why = drive_vanished(&asym, Some(&spec), &data, &prep)
+            .expect("balances")
+            .expect("a collapse");
+        assert!(why.contains("negative motion fell to 0 %"), "{why}");
+        // A dead zone wider than every force the record's command gives takes the drive from both
+        // sides; one narrower than most leaves most of it.
+        let peak = data.input.iter().fold(0.0_f64, |m, u| m.max(u.abs()));
+        let mut wide = spec.clone();
+        wide.add_effect(EffectKind::Deadzone).expect("known");
+        wide.set("deadzone.threshold_n", 1.1 * peak)
+            .expect("admissible");
+        let why = drive_vanished(&wide, None, &data, &prep)
+            .expect("balances")
+            .expect("a collapse");
+        assert!(why.contains("the body's alone"), "{why}");
+        wide.set("deadzone.threshold_n", 0.05 * peak)
+            .expect("admissible");
+        assert_eq!(
+            drive_vanished(&wide, None, &data, &prep).expect("balances"),
+            None
+        );
     }
 }

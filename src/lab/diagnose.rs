@@ -119,6 +119,10 @@ pub struct Diagnosis {
     pub effective_samples: f64,
     /// The model as it is, fitted on the training part, predicting the held-out motion.
     pub base_prediction: Option<Prediction>,
+    /// Why the model as it is does not stand on this record ([`super::collapse::refused`]: a
+    /// body parameter at its bound, a drive gone one way, a residual below the noise), or
+    /// `None`. Its candidates are still judged against it, but a fit of it would not be written.
+    pub base_refused: Option<String>,
     /// Effects the family allows but the regression cannot see, or that the model lacks data for.
     pub not_assessed: Vec<String>,
     /// Candidates that pass every test on the whole record (F test, BIC, the drop) but not on
@@ -299,6 +303,15 @@ pub fn diagnose(
             model.name
         );
     }
+    let base_refused = super::collapse::refused(
+        &model.spec,
+        &base_spec,
+        base.nrmse,
+        None,
+        Some(&base),
+        data,
+        d,
+    )?;
     for (name, _) in &drive {
         base_spec.set_free(name, false)?;
     }
@@ -462,6 +475,7 @@ pub fn diagnose(
         samples,
         effective_samples: n_eff,
         base_prediction,
+        base_refused,
         not_assessed,
         unconfirmed,
     })
@@ -485,7 +499,7 @@ fn holdout_rss(
     let split = test.first().copied().unwrap_or(usize::MAX);
     Ok((
         bal.evaluate_on(test).rss,
-        predict::held_out(&bal, d, split, predict::HORIZON),
+        predict::held_out(&s, data, d, &bal, split, predict::HORIZON)?,
     ))
 }
 
@@ -579,7 +593,8 @@ fn candidate(
     let trained_balance = balance(&trained, data, d)?;
     let held = trained_balance.evaluate_on(test).rss;
     let split = test.first().copied().unwrap_or(usize::MAX);
-    let prediction = predict::held_out(&trained_balance, d, split, predict::HORIZON);
+    let prediction =
+        predict::held_out(&trained, data, d, &trained_balance, split, predict::HORIZON)?;
     let prediction_improvement = prediction
         .zip(base_prediction)
         .map(|(c, b)| c.improvement_over(b));
@@ -600,8 +615,8 @@ fn candidate(
     let improvement = (base.nrmse - nrmse) / base.nrmse.max(f64::MIN_POSITIVE);
     let holdout_improvement = 1.0 - (held / base_holdout.max(f64::MIN_POSITIVE)).sqrt();
     // A collapsed fit explains nothing, however small its residual.
-    let refused = super::collapse::collapsed(&spec, &fitted, nrmse, Some(base_spec))
-        .or_else(|| super::collapse::below_noise(&fit, d));
+    let refused =
+        super::collapse::refused(&spec, &fitted, nrmse, Some(base_spec), Some(&fit), data, d)?;
     // A candidate that predicts the held-out motion worse than the model without it is not an
     // effect of this machine, whatever its balance says (the balance can be balanced where the
     // motion does not care). The prediction is noisier than the balance (a pneumatic chamber's
@@ -694,6 +709,7 @@ impl Diagnosis {
             "samples": self.samples,
             "effective_samples": self.effective_samples,
             "base_prediction": self.base_prediction,
+            "base_refused": self.base_refused,
             "not_assessed": self.not_assessed,
             "unconfirmed": self.unconfirmed,
         })

@@ -5,7 +5,7 @@
 
 use serde::Serialize;
 
-use super::collapse::{below_noise, collapsed};
+use super::collapse::refused;
 use super::data::Dataset;
 use super::diagnose::{diagnose, DiagnoseOptions};
 use super::methods::held_at_bound_in;
@@ -26,7 +26,8 @@ pub struct Step {
     pub effect: String,
     /// NRMSE of the model before it (diagnosis criterion, free parameters refitted).
     pub nrmse_before: f64,
-    /// NRMSE with it added and refitted.
+    /// NRMSE with it added and refitted, over the spread of the start's force to explain (the
+    /// reference of every rung).
     pub nrmse: f64,
     /// Relative NRMSE drop on the held-out samples.
     pub holdout_improvement: f64,
@@ -90,9 +91,15 @@ pub fn discover(
     let mut steps: Vec<Step> = Vec::new();
     let mut nrmse_base = None;
     let (start, start_fit) = fit_spec(&model.spec, data, d, None)?;
-    if let Some(why) =
-        collapsed(&model.spec, &start, start_fit.nrmse, None).or_else(|| below_noise(&start_fit, d))
-    {
+    if let Some(why) = refused(
+        &model.spec,
+        &start,
+        start_fit.nrmse,
+        None,
+        Some(&start_fit),
+        data,
+        d,
+    )? {
         anyhow::bail!(
             "{}: the model as given does not fit this record: {why}",
             data.origin
@@ -164,15 +171,24 @@ pub fn discover(
             }
         }
         let (spec, fit) = fit_spec(&with, data, d, None)?;
-        if let Some(why) =
-            collapsed(&with, &spec, fit.nrmse, Some(&current.spec)).or_else(|| below_noise(&fit, d))
-        {
+        if let Some(why) = refused(
+            &with,
+            &spec,
+            fit.nrmse,
+            Some(&current.spec),
+            Some(&fit),
+            data,
+            d,
+        )? {
             return finish(steps, Some((effect, why)), false);
         }
         steps.push(Step {
             effect: effect.clone(),
             nrmse_before: steps.last().map_or(start_fit.nrmse, |s: &Step| s.nrmse),
-            nrmse: fit.nrmse,
+            // On the start's reference, as every rung: an effect that reshapes the drive (a dead
+            // zone) moves its own target, and over that its figure could rise while its
+            // residual fell.
+            nrmse: fit.nrmse_on(start_fit.reference()),
             holdout_improvement: c.holdout_improvement,
             delta_bic: c.delta_bic,
             prediction: c.prediction,

@@ -322,6 +322,22 @@ fn held_force(mut f: Vec<f64>) -> Vec<f64> {
 
 /// Build the balance of forces of `spec` on the data (raw and prepared).
 pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<Balance> {
+    build_balance(spec, raw, d, true)
+}
+
+/// The balance with every column taken on the signals of `d` alone, without the motion mask of
+/// a record that sticks (whose columns come from the raw record, whatever `d` holds): what the
+/// model's force is at the states `d` gives, such as the measured ones moved by a step.
+pub fn balance_at_states(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<Balance> {
+    build_balance(spec, raw, d, false)
+}
+
+fn build_balance(
+    spec: &PlantSpec,
+    raw: &Dataset,
+    d: &Prepared,
+    masked: bool,
+) -> anyhow::Result<Balance> {
     for e in &spec.effects {
         if !representable(spec.family, e.kind, d) {
             anyhow::bail!(
@@ -374,9 +390,11 @@ pub fn balance(spec: &PlantSpec, raw: &Dataset, d: &Prepared) -> anyhow::Result<
         }
         super::terms::load_terms(spec, raw, light, t)
     };
-    if spec.family == Family::MotorGear {
+    let sticking =
+        spec.family == Family::Pneumatic || (spec.family == Family::Solenoid && sticks(d));
+    if masked && spec.family == Family::MotorGear {
         super::regress_gear::in_motion(spec, raw, d, &mut terms, &load_on)?;
-    } else if spec.family == Family::Pneumatic || (spec.family == Family::Solenoid && sticks(d)) {
+    } else if masked && sticking {
         // A valve under a proportional loop pushes the piston in hops at small duty, where the
         // chamber's lag and the filter's reach blur each stop: on the independent simulator the
         // complete model was given a dead zone at 2 ms samples (2 seeds of 3), none with the

@@ -445,6 +445,13 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
                  NRMSE here weighs the samples at rest as much as the moving ones (`compare` and `fit` give motion alone)",
                 m.name, d.origin, dg.mode, dg.nrmse_base, dg.samples, dg.effective_samples
             );
+            if let Some(why) = &dg.base_refused {
+                println!(
+                    "the model as given does not stand on this record: {why}; its candidates \
+                     are judged against it, and `fit` would not write it (declare what the record \
+                     cannot determine in [lab] fixed)"
+                );
+            }
             println!(
                 "\n  {:<20} {:>8} {:>8} {:>9} {:>9} {:>10} {:>10}  evidence",
                 "effect", "NRMSE", "drop", "held-out", "predicted", "ΔBIC", "p"
@@ -720,13 +727,16 @@ pub fn run(cmd: LabCommand) -> anyhow::Result<()> {
             let balance_fit = actuatord::lab::regress::balance(&f.spec, &d, &prep)
                 .map(|b| b.evaluate())
                 .ok();
-            let refused = actuatord::lab::collapse::collapsed(&m.spec, &f.spec, crit_after, None)
-                .or_else(|| {
-                    balance_fit
-                        .as_ref()
-                        .and_then(|b| actuatord::lab::collapse::below_noise(b, &prep))
-                })
-                .or_else(|| actuatord::lab::methods::held_at_bound(&f.parameters));
+            let refused = actuatord::lab::collapse::refused(
+                &m.spec,
+                &f.spec,
+                crit_after,
+                None,
+                balance_fit.as_ref(),
+                &d,
+                &prep,
+            )?
+            .or_else(|| actuatord::lab::methods::held_at_bound(&f.parameters));
             if let Some(why) = refused {
                 anyhow::bail!(
                     "{}: {} on {}: {why}; {} not written",
