@@ -78,6 +78,16 @@ fn own_friction(path: &Path) -> (Sliding, Sliding) {
     (median(&mut pos), median(&mut neg))
 }
 
+/// The candidate for `effect` in a diagnosis' JSON.
+fn candidate<'a>(d: &'a serde_json::Value, effect: &str) -> &'a serde_json::Value {
+    d["candidates"]
+        .as_array()
+        .expect("candidates")
+        .iter()
+        .find(|c| c["effect"] == effect)
+        .unwrap_or_else(|| panic!("no {effect} candidate: {d:#}"))
+}
+
 /// A fitted parameter's value and 95 % interval (the value itself where none was given).
 fn parameter(fit: &serde_json::Value, name: &str) -> (f64, f64, f64) {
     let p = fit["parameters"]
@@ -249,49 +259,22 @@ fn the_three_pressures_together_name_the_friction_that_follows_the_supply() {
     // is the dry friction: the joint answer is the friction scaled by the supply, with a
     // positive exponent (friction growing with pressure).
     assert_eq!(d["verdict"], "supply_friction", "{d:#}");
-    let chosen = d["candidates"]
-        .as_array()
-        .expect("candidates")
-        .iter()
-        .find(|c| c["effect"] == "supply_friction")
-        .expect("the chosen candidate");
-    let exponent = chosen["parameters"]
-        .as_array()
-        .expect("parameters")
-        .iter()
-        .find(|p| p["name"] == "supply_friction.exponent")
-        .and_then(|p| p["value"].as_f64())
-        .expect("the exponent");
+    let exponent = parameter(candidate(&d, "supply_friction"), "supply_friction.exponent").0;
     assert!(exponent > 0.2, "exponent {exponent}");
     // Each record alone: its friction differs per direction by a third or more (the first
     // test), and a drive gain per direction fits that best of all by taking the drive away from
     // the negative strokes, the friction there vanishing with it: the piston coasts back in
     // that model. It is refused as a collapse in every record, never named.
     for r in &records {
-        let alone = json(
-            dir.path(),
-            &[
-                "diagnose",
-                "--json",
-                "--model",
-                "friction.toml",
-                "--data",
-                r,
-            ],
-        );
-        let asym = alone["candidates"]
-            .as_array()
-            .expect("candidates")
-            .iter()
-            .find(|c| c["effect"] == "direction_asymmetry")
-            .unwrap_or_else(|| panic!("{r}: no direction_asymmetry candidate"));
-        let gain_neg = asym["parameters"]
-            .as_array()
-            .expect("parameters")
-            .iter()
-            .find(|p| p["name"] == "direction_asymmetry.gain_neg")
-            .and_then(|p| p["value"].as_f64())
-            .expect("gain_neg");
+        let diagnose = |model: &str| {
+            json(
+                dir.path(),
+                &["diagnose", "--json", "--model", model, "--data", r],
+            )
+        };
+        let alone = diagnose("friction.toml");
+        let asym = candidate(&alone, "direction_asymmetry");
+        let gain_neg = parameter(asym, "direction_asymmetry.gain_neg").0;
         let evidence = asym["evidence"].as_str().expect("evidence");
         assert!(
             asym["significant"] == false
@@ -301,17 +284,7 @@ fn the_three_pressures_together_name_the_friction_that_follows_the_supply() {
         );
         assert_ne!(alone["verdict"], "direction_asymmetry", "{r}");
         // With the mass free, the model as given is itself a collapse, and says so.
-        let free = json(
-            dir.path(),
-            &[
-                "diagnose",
-                "--json",
-                "--model",
-                "free_mass.toml",
-                "--data",
-                r,
-            ],
-        );
+        let free = diagnose("free_mass.toml");
         let why = free["base_refused"].as_str().unwrap_or_default();
         assert!(
             why.contains("linear_axis.mass_kg"),
