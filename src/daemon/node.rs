@@ -21,7 +21,7 @@ use crate::device::{
     messages, CommandPdo, Emcy, FaultResetPdo, LoopStatusPdo, SensorPdo, SetpointPdo,
     SupplyPressurePdo,
 };
-use crate::supervise::{FaultKind, FaultState, SetpointSourceEvent};
+use crate::supervise::{FaultKind, FaultState, ReactionName, SetpointSourceEvent};
 use hdrhistogram::Histogram;
 use std::sync::mpsc::{SyncSender, TrySendError};
 
@@ -822,6 +822,23 @@ impl ControllerNode {
                 slot.sensor_missed += 1;
             }
             let rejoining = slot.rejoin.as_ref().is_some_and(Rejoin::is_running);
+            let reaction = step.model.machine.reaction;
+            if reaction > slot.last_reaction {
+                if let Some(r) = reaction {
+                    record(Record::Event(Event::ReactionApplied {
+                        t_s: now_s,
+                        axis_node_id: node,
+                        reaction: ReactionName::of(r),
+                        cycle,
+                    }));
+                }
+            }
+            slot.last_reaction = reaction;
+            if let Some(link) = slot.link.as_mut() {
+                // Every axis' stop goes into its RPDO of this very cycle: drives whose faults
+                // latch together stop in the same SYNC period.
+                link.set_stop(step.model.machine.stop);
+            }
             if let (true, Some(link)) = (operational, slot.link.as_mut()) {
                 // A node being configured again gets its PDOs once it is started.
                 if !rejoining {

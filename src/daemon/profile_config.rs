@@ -83,16 +83,36 @@ crate::declare_section! {
             unit: "s", min: f64::MIN_POSITIVE, max: f64::MAX, access: Restart,
             doc: "wait for the drive's SDO server at start-up", words: "> 0", default: 5.0,
         },
-        /// Homing acceleration 609Ah: m/s² (rad/s²) per unit; absent: the velocity unit per
-        /// second, as CiA 402 drives commonly count it.
+        /// Acceleration unit of 609Ah, 6084h and 6085h: m/s² (rad/s²) per unit; absent: the
+        /// velocity unit per second, as CiA 402 drives commonly count it.
         acceleration_m_per_s2_per_unit: Option<f64> = {
             unit: "m/s²", min: f64::MIN_POSITIVE, max: f64::MAX, access: Restart,
-            doc: "homing acceleration 609Ah per unit", words: "> 0",
+            doc: "acceleration 609Ah, 6084h, 6085h per unit", words: "> 0",
         },
         /// What the drive does when the daemon's heartbeat stops (6007h, written at start-up).
         abort_connection_option: AbortConnectionOption = {
             unit: "", access: Restart, doc: "abort connection option code 6007h",
             default: AbortConnectionOption::QuickStop,
+        },
+        /// Quick stop option code 605Ah, written at start-up: how the drive stops on the
+        /// command "quick stop" (a `quick_stop` fault reaction, or 6007h = quick_stop). 1/5 on
+        /// the profile deceleration 6084h, 2/6 on the quick stop deceleration 6085h; 1/2 then
+        /// switch the power stage off, 5/6 hold in "quick stop active"; 0 switches off at once,
+        /// 3/4/7/8 stop on the current or voltage limit. Absent: the drive's own value.
+        quick_stop_option_code: Option<i32> = {
+            unit: "", min: 0.0, max: 8.0, access: Restart,
+            doc: "quick stop option code 605Ah", words: "a CiA 402 option code in 0..=8",
+        },
+        /// Quick stop deceleration 6085h, written at start-up; absent: the drive's own value.
+        quick_stop_deceleration_m_per_s2: Option<f64> = {
+            unit: "m/s²", min: f64::MIN_POSITIVE, max: f64::MAX, access: Restart,
+            doc: "quick stop deceleration 6085h", words: "> 0",
+        },
+        /// Profile deceleration 6084h, written at start-up: the ramp of a `halt` (and of quick
+        /// stop option codes 1 and 5); absent: the drive's own value.
+        profile_deceleration_m_per_s2: Option<f64> = {
+            unit: "m/s²", min: f64::MIN_POSITIVE, max: f64::MAX, access: Restart,
+            doc: "profile deceleration 6084h", words: "> 0",
         },
         /// Homing at start-up (`command = "position"`).
         homing: Option<HomingSection> = { unit: "", access: Restart, doc: "" },
@@ -369,6 +389,24 @@ pub fn check(axis: &AxisConfig) -> Result<(), (String, String)> {
         let section = section.to_string();
         move |e: ParamError| (format!("{section}.{}", e.name), e.reason)
     };
+    // A drive stop fits a CiA 402 drive only; the first such reaction is named.
+    if axis.profile != ProfileKind::Cia402 {
+        if let Some((fault, reaction)) = axis.fault_reactions.as_ref().and_then(|r| r.drive_stop())
+        {
+            return err(
+                &format!(
+                    "{}.{}",
+                    crate::param_key!(AxisConfig, fault_reactions),
+                    fault.name()
+                ),
+                format!(
+                    "= \"{}\" is a stop a CiA 402 drive makes (controlword 6040h): this axis' node is profile = \"{}\"",
+                    reaction.name(),
+                    axis.profile.name()
+                ),
+            );
+        }
+    }
     let drive_command = matches!(
         axis.command,
         CommandKind::Torque | CommandKind::Velocity | CommandKind::Position

@@ -12,6 +12,7 @@ use crate::device::profile::cia401::{self, Scaling};
 use crate::device::profile::cia402::{self, Mode, PowerDriver, State, Target};
 use crate::device::profile::mapping::{sign_extend, to_raw_signed, Direction, Pdo};
 use crate::device::SensorPdo;
+use crate::supervise::DriveStop;
 
 /// Generic error (CiA 301): a drive in fault whose EMCY was not seen.
 pub const UNKNOWN_DRIVE_ERROR: u16 = 0x1000;
@@ -64,6 +65,8 @@ enum Device {
         mode_display: i8,
         /// A position drive's homing at start-up, when configured.
         homing: Option<HomingSequence>,
+        /// Controlword bit 8 goes out with "enable operation": a fault reaction's halt.
+        halt: bool,
     },
     Io {
         position: (u8, Scaling),
@@ -111,6 +114,7 @@ impl ProfileLink {
                         .homing
                         .as_ref()
                         .map(|h| HomingSequence::new(h.timeout_s, period_s, h.require_homing)),
+                    halt: false,
                 }
             }
             ProfileKind::Cia401 => {
@@ -377,6 +381,22 @@ impl ProfileLink {
         }
     }
 
+    /// The stop the axis' latched faults ask of the drive, from this cycle's RPDO on: a quick
+    /// stop leads the drive through "quick stop active", a halt sets bit 8; `None` brings an
+    /// enabled drive back (after a fault reset). A drive being disabled stays so.
+    pub fn set_stop(&mut self, stop: DriveStop) {
+        if let Device::Drive { driver, halt, .. } = &mut self.device {
+            match (stop, driver.target()) {
+                (DriveStop::QuickStop, Target::Enabled) => driver.set_target(Target::QuickStop),
+                (DriveStop::None | DriveStop::Halt, Target::QuickStop) => {
+                    driver.set_target(Target::Enabled)
+                }
+                _ => {}
+            }
+            *halt = stop == DriveStop::Halt;
+        }
+    }
+
     /// This cycle's RPDOs with `command` in the axis' unit (N·m or N, m/s, V or duty).
     pub fn send_command(&mut self, command: f64, send: &mut dyn FnMut(&Frame)) {
         let io_channel = match &self.device {
@@ -396,10 +416,16 @@ impl ProfileLink {
                 position_raw,
                 mode_display,
                 homing,
+                halt,
                 ..
             } => {
                 *reset_grace = reset_grace.saturating_sub(1);
                 let mut cw = driver.controlword();
+                // Halt rides on "enable operation" only: a drive on its way there is
+                // enabled halted, one being disabled or quick-stopped is not held back.
+                if *halt && cw == cia402::command::ENABLE_OPERATION {
+                    cw |= cia402::control::HALT;
+                }
                 let enabled = driver.state() == Some(State::OperationEnabled)
                     && driver.target() == Target::Enabled;
                 mode_code = mode.code();

@@ -462,6 +462,62 @@ fn homing_steps(
         .collect())
 }
 
+/// How the drive stops, each as configured and read back: the quick stop option code 605Ah,
+/// the quick stop deceleration 6085h and the profile deceleration 6084h (the halt's ramp), in
+/// the drive's acceleration units. Objects left out of the configuration are not touched.
+fn stop_steps(axis: &str, d: &Cia402Section) -> Result<Vec<SetupStep>, SetupError> {
+    let unit = d
+        .acceleration_m_per_s2_per_unit
+        .unwrap_or(d.velocity_m_per_s_per_unit);
+    let mut steps = Vec::new();
+    if let Some(code) = d.quick_stop_option_code {
+        let code = code as i16;
+        steps.extend(SetupStep::write_checked(
+            ObjectId::new(cia402::QUICK_STOP_OPTION, 0),
+            &code.to_le_bytes(),
+            code as u16 as u32,
+            0xFFFF,
+            "quick stop option code",
+        ));
+    }
+    for (index, key, value, what) in [
+        (
+            cia402::QUICK_STOP_DECELERATION,
+            crate::param_key!(Cia402Section, quick_stop_deceleration_m_per_s2),
+            d.quick_stop_deceleration_m_per_s2,
+            "quick stop deceleration",
+        ),
+        (
+            cia402::PROFILE_DECELERATION,
+            crate::param_key!(Cia402Section, profile_deceleration_m_per_s2),
+            d.profile_deceleration_m_per_s2,
+            "profile deceleration",
+        ),
+    ] {
+        let Some(value) = value else { continue };
+        // In the drive's units: SI over the unit, rounded.
+        let raw = (value / unit).round();
+        if !(1.0..=f64::from(u32::MAX)).contains(&raw) {
+            return Err(SetupError::Layout {
+                axis: axis.to_string(),
+                reason: format!(
+                    "{}.{key} = {value} does not fit {index:04X}h in the drive's units ({unit} m/s² each)",
+                    crate::param_key!(AxisConfig, cia402),
+                ),
+            });
+        }
+        let raw = raw as u32;
+        steps.extend(SetupStep::write_checked(
+            ObjectId::new(index, 0),
+            &raw.to_le_bytes(),
+            raw,
+            u32::MAX,
+            what,
+        ));
+    }
+    Ok(steps)
+}
+
 /// The consumer heartbeat time a standard node watches the daemon with, ms: the daemon's
 /// heartbeat period plus the configured margin; an error names the keys when 1016h's 16 bits
 /// cannot hold it.
@@ -533,6 +589,7 @@ pub fn plan(
     }
     steps.extend(watchdog_steps(node, axis)?);
     if let (ProfileKind::Cia402, Some(d)) = (axis.profile, &axis.cia402) {
+        steps.extend(stop_steps(&axis.name, d)?);
         let mut mode = drive_mode(axis.command).map_or(0, |m| m.code());
         if let Some(h) = &d.homing {
             steps.extend(homing_steps(&axis.name, d, h)?);

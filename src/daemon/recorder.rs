@@ -310,6 +310,7 @@ fn log_event(e: &Event) {
         | Event::BusError { .. }
         | Event::BusRestored { .. }
         | Event::SetpointSource { .. }
+        | Event::ReactionApplied { .. }
         | Event::NodeRejoin {
             stage: RejoinStage::Rebooted { .. },
             ..

@@ -8,7 +8,7 @@ use super::axis::Axis;
 use super::profile_link::ProfileLink;
 use super::profile_rejoin::Rejoin;
 use crate::control::BandStatus;
-use crate::supervise::FaultState;
+use crate::supervise::{FaultState, Reaction};
 
 pub struct AxisSlot {
     pub(super) axis: Axis,
@@ -22,6 +22,8 @@ pub struct AxisSlot {
     pub(super) resume: bool,
     /// Fault state, latched limit faults and latched diagnoses sent last cycle.
     pub(super) last_fault_state: (FaultState, u16, u16),
+    /// The reaction the latched faults called for last cycle.
+    pub(super) last_reaction: Option<Reaction>,
     /// Where the supply was against its scheduled band last cycle.
     pub(super) last_supply_band: BandStatus,
     /// An EMCY "error reset" is due with the next cycle's frames.
@@ -38,6 +40,7 @@ impl AxisSlot {
             rejoin: None,
             resume: false,
             last_fault_state: (FaultState::Ok, 0, 0),
+            last_reaction: None,
             last_supply_band: BandStatus::Inside,
             announce_reset: false,
             faults_raised: 0,

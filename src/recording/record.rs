@@ -5,7 +5,7 @@ use crate::bus::{BusErrorFrame, BusFault, Frame};
 use crate::canopen::od::ObjectId;
 use crate::canopen::sdo::AbortCode;
 use crate::canopen::{DecodeError, NmtState};
-use crate::supervise::{FaultKind, FaultState, SupervisedFault};
+use crate::supervise::{FaultKind, FaultState, ReactionName, SupervisedFault};
 use serde::{Deserialize, Serialize};
 
 /// One axis in one cycle. Field names are the protocol's signal names (`dbc/actuatord.dbc`).
@@ -101,6 +101,15 @@ pub enum Event {
     FaultsReset {
         t_s: f64,
         axis_node_id: u8,
+    },
+    /// The reaction the axis' latched faults call for became more severe and is applied from
+    /// this cycle on (`[axis.fault_reactions]`): for a drive stop, its controlword goes out in
+    /// this cycle's RPDO.
+    ReactionApplied {
+        t_s: f64,
+        axis_node_id: u8,
+        reaction: ReactionName,
+        cycle: u64,
     },
     /// A frame with a known id but a layout that does not decode.
     Malformed {
@@ -288,6 +297,7 @@ impl Event {
             Event::FaultRaised { t_s, .. }
             | Event::Diagnosed { t_s, .. }
             | Event::FaultsReset { t_s, .. }
+            | Event::ReactionApplied { t_s, .. }
             | Event::Malformed { t_s, .. }
             | Event::UnknownFrame { t_s, .. }
             | Event::BusError { t_s, .. }
@@ -313,6 +323,7 @@ impl Event {
             Event::FaultRaised { .. } => "fault_raised",
             Event::Diagnosed { .. } => "diagnosed",
             Event::FaultsReset { .. } => "faults_reset",
+            Event::ReactionApplied { .. } => "reaction_applied",
             Event::Malformed { .. } => "frame_malformed",
             Event::UnknownFrame { .. } => "frame_unknown",
             Event::BusError { .. } => "bus_error",
@@ -387,6 +398,24 @@ impl std::fmt::Display for Event {
             Event::FaultsReset { t_s, axis_node_id } => {
                 write!(f, "t={t_s:.4}s axis {axis_node_id}: faults reset")
             }
+            Event::ReactionApplied {
+                t_s,
+                axis_node_id,
+                reaction,
+                cycle,
+            } => write!(
+                f,
+                "t={t_s:.4}s cycle {cycle}: axis {axis_node_id}: reaction {} applied{}",
+                reaction.name(),
+                match reaction {
+                    ReactionName::Halt =>
+                        ": the drive halts (controlword bit 8) on its profile deceleration 6084h",
+                    ReactionName::QuickStop =>
+                        ": the drive gets the command quick stop (605Ah, 6085h)",
+                    ReactionName::FailSafe => ": the safe command goes out",
+                    _ => "",
+                }
+            ),
             Event::Malformed { t_s, frame, error } => {
                 write!(f, "t={t_s:.4}s malformed frame {frame}: {error}")
             }

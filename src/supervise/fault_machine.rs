@@ -92,8 +92,37 @@ pub enum Reaction {
     Warning,
     /// Keep working, ask for maintenance.
     Maintenance,
+    /// A CiA 402 drive stops on its profile deceleration 6084h (controlword bit 8) and holds,
+    /// enabled; the axis is out of work as in fail-safe.
+    Halt,
+    /// A CiA 402 drive gets the command "quick stop": it stops as its quick stop option code
+    /// 605Ah says; the axis is out of work as in fail-safe.
+    QuickStop,
     /// Drive the actuator to its safe state and hold it there.
     FailSafe,
+}
+
+impl Reaction {
+    /// The stop a CiA 402 drive is told to make for this reaction, if any.
+    pub fn drive_stop(self) -> DriveStop {
+        match self {
+            Reaction::Halt => DriveStop::Halt,
+            Reaction::QuickStop => DriveStop::QuickStop,
+            _ => DriveStop::None,
+        }
+    }
+}
+
+/// The stop a CiA 402 drive makes on its own ramp, in increasing severity: the strongest
+/// asked for by a latched fault is applied, beside the safe command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Default)]
+pub enum DriveStop {
+    #[default]
+    None,
+    /// Controlword bit 8: stop on 6084h, stay enabled.
+    Halt,
+    /// The device control command "quick stop" (controlword bit 2 low).
+    QuickStop,
 }
 
 /// The state of the machine, in increasing severity.
@@ -172,6 +201,10 @@ pub struct FaultMachineOutput {
     pub pending: SupervisedFaults,
     /// The actuator must be in its safe state.
     pub fail_safe: bool,
+    /// The drive stop the latched faults ask for.
+    pub stop: DriveStop,
+    /// The most severe reaction among the latched faults (`None` while nothing is latched).
+    pub reaction: Option<Reaction>,
 }
 
 const N: usize = SupervisedFault::ALL.len();
@@ -227,13 +260,21 @@ impl FaultMachine {
             }
         }
         let mut level = SupervisionLevel::Ok;
+        let mut stop = DriveStop::None;
+        let mut reaction = None;
         for f in self.latched.iter() {
-            let l = match self.reaction[f as usize] {
+            let r = self.reaction[f as usize];
+            let l = match r {
                 Reaction::Warning => SupervisionLevel::Warning,
                 Reaction::Maintenance => SupervisionLevel::MaintenanceRequested,
-                Reaction::FailSafe => SupervisionLevel::FailSafe,
+                // The drive stops itself; to the axis it is the safe state.
+                Reaction::Halt | Reaction::QuickStop | Reaction::FailSafe => {
+                    SupervisionLevel::FailSafe
+                }
             };
             level = level.max(l);
+            stop = stop.max(r.drive_stop());
+            reaction = reaction.max(Some(r));
         }
         if !pending.is_empty() {
             level = level.max(SupervisionLevel::Warning);
@@ -244,6 +285,8 @@ impl FaultMachine {
             raised: SupervisedFaults(self.latched.0 & !before.0),
             pending,
             fail_safe: level == SupervisionLevel::FailSafe,
+            stop,
+            reaction,
         }
     }
 
@@ -298,5 +341,28 @@ mod tests {
         );
         cfg.policies.push(cfg.policies[0]);
         assert!(FaultMachine::new(&cfg).is_err());
+    }
+
+    #[test]
+    fn a_drive_stop_is_fail_safe_and_the_strongest_stop_wins() {
+        let mut cfg = FaultMachineConfig::default();
+        cfg.policies[2].reaction = Reaction::Halt; // friction increase
+        cfg.policies[6].reaction = Reaction::QuickStop; // limit violation
+        let mut m = FaultMachine::new(&cfg).expect("valid");
+        let out = m.step(set(&[SupervisedFault::FrictionIncrease]));
+        assert_eq!(out.level, SupervisionLevel::FailSafe);
+        assert!(out.fail_safe);
+        assert_eq!(out.stop, DriveStop::Halt);
+        assert_eq!(out.reaction, Some(Reaction::Halt));
+        let out = m.step(set(&[SupervisedFault::LimitViolation]));
+        assert_eq!(out.stop, DriveStop::QuickStop);
+        assert_eq!(out.reaction, Some(Reaction::QuickStop));
+        // A fail-safe fault beside it: the safe command, and the drive's stop stays.
+        let out = m.step(set(&[SupervisedFault::CurrentGain]));
+        assert_eq!(out.stop, DriveStop::QuickStop);
+        assert_eq!(out.reaction, Some(Reaction::FailSafe));
+        m.reset();
+        let out = m.step(set(&[]));
+        assert_eq!((out.stop, out.reaction), (DriveStop::None, None));
     }
 }

@@ -11,6 +11,12 @@ declare_choice! {
     pub enum ReactionName {
         Warning = warning,
         MaintenanceRequested = maintenance_requested,
+        /// A CiA 402 drive stops on its profile deceleration 6084h (controlword bit 8, halt)
+        /// and holds there, enabled; the safe command goes out beside it.
+        Halt = halt,
+        /// A CiA 402 drive gets the command "quick stop" and stops as its quick stop option
+        /// code 605Ah says; the safe command goes out beside it.
+        QuickStop = quick_stop,
         FailSafe = fail_safe,
     }
 }
@@ -21,8 +27,26 @@ impl ReactionName {
         match self {
             ReactionName::Warning => Reaction::Warning,
             ReactionName::MaintenanceRequested => Reaction::Maintenance,
+            ReactionName::Halt => Reaction::Halt,
+            ReactionName::QuickStop => Reaction::QuickStop,
             ReactionName::FailSafe => Reaction::FailSafe,
         }
+    }
+
+    /// The name of a fault machine's reaction.
+    pub fn of(reaction: Reaction) -> Self {
+        match reaction {
+            Reaction::Warning => ReactionName::Warning,
+            Reaction::Maintenance => ReactionName::MaintenanceRequested,
+            Reaction::Halt => ReactionName::Halt,
+            Reaction::QuickStop => ReactionName::QuickStop,
+            Reaction::FailSafe => ReactionName::FailSafe,
+        }
+    }
+
+    /// The reaction is a stop a CiA 402 drive makes (it fits no other node).
+    pub fn is_drive_stop(self) -> bool {
+        self.reaction().drive_stop() != super::DriveStop::None
     }
 }
 
@@ -67,6 +91,13 @@ impl Default for FaultReactionsSection {
 }
 
 impl FaultReactionsSection {
+    /// The first fault whose configured reaction is a drive stop, with its reaction.
+    pub fn drive_stop(&self) -> Option<(SupervisedFault, ReactionName)> {
+        SupervisedFault::ALL
+            .into_iter()
+            .find_map(|f| self.named(f).filter(|r| r.is_drive_stop()).map(|r| (f, r)))
+    }
+
     /// The reaction configured for `fault`, if any.
     pub fn named(&self, fault: SupervisedFault) -> Option<ReactionName> {
         match fault {

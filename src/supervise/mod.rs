@@ -21,8 +21,8 @@ pub use estimator_supervisor::{
     EstimatorHealth, EstimatorSupervisor, EstimatorSupervisorConfig, MAX_SUPERVISED,
 };
 pub use fault_machine::{
-    FaultMachine, FaultMachineConfig, FaultMachineOutput, FaultPolicy, Reaction, SupervisedFault,
-    SupervisedFaults, SupervisionLevel,
+    DriveStop, FaultMachine, FaultMachineConfig, FaultMachineOutput, FaultPolicy, Reaction,
+    SupervisedFault, SupervisedFaults, SupervisionLevel,
 };
 pub use fault_reactions_section::{FaultReactionsSection, ReactionName};
 pub use fault_table::{FaultSymptomTable, FaultTableError, TableRow};

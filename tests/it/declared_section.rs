@@ -692,7 +692,16 @@ fn choice_keys_list_their_values_and_refuse_others() {
     use actuatord::supervise::{Reaction, SupervisedFault};
     for p in FaultReactionsSection::PARAMS {
         assert_eq!(p.kind, Kind::Choice, "{}", p.name);
-        assert_eq!(p.choices, ["warning", "maintenance_requested", "fail_safe"]);
+        assert_eq!(
+            p.choices,
+            [
+                "warning",
+                "maintenance_requested",
+                "halt",
+                "quick_stop",
+                "fail_safe"
+            ]
+        );
         assert!(p.optional && p.access == Access::Restart, "{}", p.name);
     }
     let spec = BusConfig::spec("on_loss").expect("declared");

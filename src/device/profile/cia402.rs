@@ -10,6 +10,12 @@ pub const CONTROLWORD: u16 = 0x6040;
 pub const STATUSWORD: u16 = 0x6041;
 /// Quick stop option code (INTEGER16).
 pub const QUICK_STOP_OPTION: u16 = 0x605A;
+/// Profile deceleration (UNSIGNED32, acceleration units): the ramp of a halt, and of quick stop
+/// option codes 1 and 5.
+pub const PROFILE_DECELERATION: u16 = 0x6084;
+/// Quick stop deceleration (UNSIGNED32, acceleration units): the ramp of quick stop option
+/// codes 2 and 6.
+pub const QUICK_STOP_DECELERATION: u16 = 0x6085;
 /// Abort connection option code (INTEGER16, CiA 402 §6.3.1): what the drive does when its
 /// connection to the master is lost (a heartbeat event, bus-off): [`abort_connection`].
 pub const ABORT_CONNECTION_OPTION: u16 = 0x6007;
@@ -324,16 +330,30 @@ impl DriveStateMachine {
         self.state = State::FaultReactionActive;
     }
 
-    /// Automatic transitions, once per drive cycle: 14 (fault reaction done) and 12 (quick stop
-    /// done, option codes 0..=4).
+    /// Automatic transitions of a drive without motion to wait for: [`Self::step`] at
+    /// standstill.
     pub fn tick(&mut self) {
+        self.step(true);
+    }
+
+    /// Automatic transitions, once per drive cycle: 14 (fault reaction done) and 12 (quick stop
+    /// done: option code 0 at once, 1..=4 once the axis stands still).
+    pub fn step(&mut self, standstill: bool) {
         match self.state {
             State::FaultReactionActive => self.state = State::Fault,
-            State::QuickStopActive if (0..=4).contains(&self.quick_stop_option) => {
+            State::QuickStopActive
+                if self.quick_stop_option == 0
+                    || ((1..=4).contains(&self.quick_stop_option) && standstill) =>
+            {
                 self.state = State::SwitchOnDisabled
             }
             _ => {}
         }
+    }
+
+    /// Quick stop option code 605Ah as last set.
+    pub fn quick_stop_option(&self) -> i16 {
+        self.quick_stop_option
     }
 
     /// A controlword received (SDO or RPDO). Returns the transition number taken, if any.
