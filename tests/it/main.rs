@@ -45,6 +45,7 @@ mod physics_solenoid;
 mod physics_speed;
 mod physics_terms;
 mod profiles_lockstep;
+mod quick_stop;
 mod reconfigure;
 mod recording;
 mod robust_comparison;

@@ -18,6 +18,8 @@ use std::str::FromStr;
 
 pub mod homing;
 use homing::{Homing, HomingParameters, HomingStatus};
+pub mod stop;
+use stop::{StopRamp, QUICK_STOP_OPTIONS, STANDSTILL_M_PER_S};
 mod watchdog;
 
 /// Which standard the node speaks.
@@ -92,6 +94,9 @@ const VELOCITY_KI: f64 = 2000.0;
 /// Position loop of the simulated drive in CSP and homing, around the velocity loop
 /// (velocity per position error; the velocity loop's integral holds the load).
 const POSITION_KP: f64 = 80.0;
+/// The load the drive's stop is tuned for, kg (kg·m² on a rotary axis): the built-in plant's
+/// carriage.
+const DRIVE_LOAD_MASS_KG: f64 = 1.0;
 /// The drive's acceleration units (609Ah): µm/s² (µrad/s²).
 pub const DRIVE_ACCELERATION_UNIT: f64 = 1e-6;
 
@@ -297,7 +302,16 @@ pub fn dictionary(profile: Profile, node_id: u8) -> ObjectDictionary {
                 .var(
                     cia402::QUICK_STOP_OPTION,
                     EntrySpec::rw("quick_stop_option_code", 2i16)
-                        .range(Some(Value::Integer16(0)), Some(Value::Integer16(8))),
+                        .range(Some(Value::Integer16(0)), Some(Value::Integer16(8)))
+                        .doc("1, 2 stop on 6084h, 6085h then switch on disabled; 5, 6 hold in quick stop active"),
+                )
+                .var(
+                    cia402::PROFILE_DECELERATION,
+                    EntrySpec::rw("profile_deceleration", 1_000_000u32).unit("um/s2"),
+                )
+                .var(
+                    cia402::QUICK_STOP_DECELERATION,
+                    EntrySpec::rw("quick_stop_deceleration", 10_000_000u32).unit("um/s2"),
                 )
                 .var(
                     cia402::ABORT_CONNECTION_OPTION,
@@ -491,6 +505,17 @@ pub struct ProfileNode {
     pending_emcy: Option<Frame>,
     /// The master's heartbeat as 1016h sub 1 asks for it watched.
     consumer: Option<HeartbeatConsumer>,
+    /// A quick stop or halt under way (or ended and holding).
+    stop_ramp: Option<StopRamp>,
+    /// The plant's velocity as last measured, and the period before.
+    velocity_m_per_s: f64,
+    velocity_before_m_per_s: f64,
+    /// Where a stop came to rest: held there while the stop lasts.
+    stop_hold_m: Option<f64>,
+    /// The force beyond the load's inertia in the last period and the one before, N.
+    beyond_inertia_n: (f64, f64),
+    /// The force or torque applied in the last period.
+    force_n: f64,
 }
 
 impl ProfileNode {
@@ -516,6 +541,12 @@ impl ProfileNode {
             syncs: 0,
             pending_emcy: None,
             consumer: None,
+            stop_ramp: None,
+            velocity_m_per_s: 0.0,
+            velocity_before_m_per_s: 0.0,
+            stop_hold_m: None,
+            beyond_inertia_n: (0.0, 0.0),
+            force_n: 0.0,
         };
         node.reset();
         node
@@ -560,6 +591,9 @@ impl ProfileNode {
         self.position_origin_m = 0.0;
         self.last_target_m = None;
         self.consumer = None;
+        self.stop_ramp = None;
+        self.stop_hold_m = None;
+        self.force_n = 0.0;
         self.refresh_pdos();
         self.publish_status();
     }
@@ -779,6 +813,23 @@ impl ProfileNode {
                 return;
             }
         }
+        if ccs == 1 && id.index == cia402::QUICK_STOP_OPTION && d.len() == 8 {
+            // An INTEGER16, or one byte where the client sent one.
+            let one_byte = d[0] & 0x01 != 0 && (d[0] >> 2) & 0x03 == 3;
+            let option = if one_byte {
+                i16::from(d[4] as i8)
+            } else {
+                i16::from_le_bytes([d[4], d[5]])
+            };
+            if !QUICK_STOP_OPTIONS.contains(&option) {
+                send(&sdo::abort_frame(
+                    sdo::response_cob_id(self.node_id),
+                    id,
+                    AbortCode::VALUE_RANGE_EXCEEDED,
+                ));
+                return;
+            }
+        }
         if ccs == 1
             && id.index == cia402::HOMING_METHOD
             && d.len() == 8
@@ -898,6 +949,9 @@ impl ProfileNode {
                 }
                 _ => {}
             }
+            if self.halted_at_standstill() {
+                sw |= cia402::status::TARGET_REACHED;
+            }
             let code = self.drive.error_code();
             self.set(ObjectId::new(cia402::STATUSWORD, 0), Value::Unsigned16(sw));
             self.set(
@@ -986,6 +1040,8 @@ impl ProfileNode {
         match self.profile {
             Profile::Cia402 => {
                 self.position_m = m.position;
+                self.velocity_before_m_per_s = self.velocity_m_per_s;
+                self.velocity_m_per_s = m.velocity;
                 self.publish_position();
                 self.set_f64(cia402::VELOCITY_ACTUAL, 0, m.velocity / DRIVE_VELOCITY_UNIT);
                 let rated_n = f64::from(DRIVE_RATED_TORQUE_MNM) * 1e-3;
@@ -1053,9 +1109,78 @@ impl ProfileNode {
         }
     }
 
-    /// The drive's cycle: scheduled faults, automatic transitions, and the force or torque it
-    /// applies in the mode of operation (none while not "operation enabled").
+    /// The drive's cycle, remembering the force it applies (a stop starts from it).
     fn drive_step(&mut self, plant: &mut dyn Plant, dt: f64) -> f64 {
+        // The force beyond the load's inertia in the last period: F_d = F - m (v(k) - v(k-1)) / T.
+        let beyond = self.force_n
+            - DRIVE_LOAD_MASS_KG * (self.velocity_m_per_s - self.velocity_before_m_per_s) / dt;
+        self.beyond_inertia_n = (beyond, self.beyond_inertia_n.0);
+        let force = self.drive_force(plant, dt);
+        self.force_n = force;
+        force
+    }
+
+    /// The halt bit is set while the drive is enabled.
+    fn halted(&self) -> bool {
+        self.drive.state().is_enabled()
+            && self.drive.last_controlword() & cia402::control::HALT != 0
+    }
+
+    /// A stop has brought the axis to rest.
+    fn at_standstill(&self) -> bool {
+        self.stop_hold_m.is_some()
+    }
+
+    /// Statusword bit 10 of a halt: the axis has come to rest.
+    fn halted_at_standstill(&self) -> bool {
+        self.halted() && self.at_standstill()
+    }
+
+    /// A quick stop or halt: the deceleration its objects give, held to by a force that adds
+    /// the load's inertia to what the last period needed beyond it; at rest, the position loop
+    /// holds the axis where it stopped.
+    fn stop_force(&mut self, dt: f64, max_n: f64) -> f64 {
+        let quick_stop_ramp = self.drive.state() == State::QuickStopActive
+            && stop::on_quick_stop_deceleration(self.drive.quick_stop_option());
+        let object = if quick_stop_ramp {
+            cia402::QUICK_STOP_DECELERATION
+        } else {
+            cia402::PROFILE_DECELERATION
+        };
+        let deceleration = self.f64_at(object, 0) * DRIVE_ACCELERATION_UNIT;
+        if self.homing.is_moving() {
+            self.homing.interrupt();
+        }
+        self.last_target_m = None;
+        let v = self.velocity_m_per_s;
+        let mut ramp = self
+            .stop_ramp
+            .unwrap_or_else(|| StopRamp::new(self.position_m, v));
+        if self.stop_hold_m.is_none() && ramp.stopped() && v.abs() < STANDSTILL_M_PER_S {
+            // Bumpless: the velocity loop's integral carries the force applied so far.
+            self.velocity_integral = self.force_n / VELOCITY_KI;
+            self.stop_hold_m = Some(self.position_m);
+        }
+        if let Some(hold) = self.stop_hold_m {
+            self.stop_ramp = Some(ramp);
+            return self.position_loop(hold, 0.0, dt, max_n);
+        }
+        ramp.step(deceleration, dt);
+        self.stop_ramp = Some(ramp);
+        // The force beyond the load's inertia in the coming period, continued along its last
+        // change (the spring's force grows with the travel): F_d(k+1) = 2 F_d(k) - F_d(k-1).
+        let (now, before) = self.beyond_inertia_n;
+        let beyond_inertia_n = 2.0 * now - before;
+        // a = (v_ramp(k+1) - v(k)) / T, held within the deceleration.
+        let a = ((ramp.velocity_m_per_s - v) / dt).clamp(-deceleration, deceleration);
+        // F = F_d + m a.
+        (beyond_inertia_n + DRIVE_LOAD_MASS_KG * a).clamp(-max_n, max_n)
+    }
+
+    /// The drive's cycle: scheduled faults, automatic transitions, and the force or torque it
+    /// applies in the mode of operation, or on a stop's ramp (none while the power stage is
+    /// off).
+    fn drive_force(&mut self, plant: &mut dyn Plant, dt: f64) -> f64 {
         while let Some(f) = self.drive_faults.get(self.next_drive_fault) {
             if f.at_s > plant.time_s() + 1e-9 {
                 break;
@@ -1066,9 +1191,14 @@ impl ProfileNode {
             // Error register 1001h bit 0 (generic) with the code, as a drive announces it.
             self.pending_emcy = Some(self.emcy(code, 0x01));
         }
-        self.drive.tick();
+        self.drive.step(self.at_standstill());
         let rated_n = f64::from(DRIVE_RATED_TORQUE_MNM) * 1e-3;
         let max_n = self.f64_at(cia402::MAX_TORQUE, 0) * 1e-3 * rated_n;
+        if self.drive.state() == State::QuickStopActive || self.halted() {
+            return self.stop_force(dt, max_n).clamp(-max_n, max_n);
+        }
+        self.stop_ramp = None;
+        self.stop_hold_m = None;
         if !self.drive.state().is_enabled() {
             if self.homing.is_moving() {
                 self.homing.interrupt();
@@ -1356,6 +1486,167 @@ mod tests {
         );
         assert!(worst < 150, "{worst} um");
         assert!((end - start - 5000).abs() <= 3, "{}", end - start);
+    }
+
+    /// A drive in CSV toward 0.1 m/s behind the built-in plant, with 605Ah = `option`, 6084h =
+    /// 1 m/s² and 6085h = 4 m/s²; then the controlword `stop` each SYNC (0x02 quick stop,
+    /// 0x10F halt). Returns the true velocity and the statusword of each SYNC after the stop,
+    /// and the drive's states.
+    fn stop_run(option: i16, stop: u64, syncs: usize) -> (Vec<f64>, Vec<u16>, Vec<State>) {
+        let mut plant = drive_plant();
+        let mut n = ProfileNode::new(Profile::Cia402, 16, vec![]);
+        let mut p = n.pdos()[0].clone();
+        p.objects = vec![
+            MappedObject::new(cia402::CONTROLWORD, 0, 16),
+            MappedObject::new(cia402::TARGET_VELOCITY, 0, 32),
+        ];
+        p.transmission_type = 1;
+        for w in p.configuration_writes() {
+            sdo_write(&mut n, w.id.index, w.id.sub, w.value, w.size);
+        }
+        for (index, value, size) in [
+            (cia402::MODES_OF_OPERATION, 9, 1),
+            (cia402::QUICK_STOP_OPTION, option as u16 as u32, 2),
+            (cia402::PROFILE_DECELERATION, 1_000_000, 4),
+            (cia402::QUICK_STOP_DECELERATION, 4_000_000, 4),
+        ] {
+            let a = sdo_write(&mut n, index, 0, value, size);
+            assert_eq!(abort_code(&a), None, "{index:04X}");
+        }
+        let op = NmtState::Operational;
+        let dt = 0.001;
+        let step = |n: &mut ProfileNode, plant: &mut dyn Plant, cw: u64| {
+            let f = p.pack(|id| match id.index {
+                cia402::CONTROLWORD => cw,
+                _ => 100_000,
+            });
+            n.handle(&f, op, &mut |_| {});
+            n.on_sync(plant, dt, op, &mut |_| {});
+            n.f64_at(cia402::STATUSWORD, 0) as u16
+        };
+        for cw in [0x06, 0x07] {
+            step(&mut n, plant.as_mut(), cw);
+        }
+        for _ in 0..300 {
+            step(&mut n, plant.as_mut(), 0x0F);
+        }
+        // The velocity loop's integral lags the spring's growing force: it runs at about half
+        // the target.
+        let v0 = plant.truth().velocity;
+        assert!(v0 > 0.03, "moving at {v0} m/s");
+        let (mut v, mut sw, mut states) = (vec![v0], vec![], vec![]);
+        for _ in 0..syncs {
+            sw.push(step(&mut n, plant.as_mut(), stop));
+            v.push(plant.truth().velocity);
+            states.push(n.drive_state());
+        }
+        (v, sw, states)
+    }
+
+    /// The largest |dv/dt| of a velocity sampled every millisecond.
+    fn largest_deceleration(v: &[f64]) -> f64 {
+        v.windows(2)
+            .map(|w| ((w[1] - w[0]) / 0.001).abs())
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn a_quick_stop_decelerates_on_the_ramp_its_option_code_names_and_ends_as_it_says() {
+        for (option, deceleration, holds) in [
+            (1, 1.0, false),
+            (2, 4.0, false),
+            (5, 1.0, true),
+            (6, 4.0, true),
+        ] {
+            let (v, sw, states) = stop_run(option, 0x02, 400);
+            // Quick stop active shows bit 5 cleared, and the state pattern 0x07.
+            assert_eq!(states[0], State::QuickStopActive, "option {option}");
+            assert_eq!(sw[0] & 0x6F, 0x07, "option {option}: {:04x}", sw[0]);
+            // The stop ends where the drive switches off (1, 2: the spring then moves the
+            // free axis) or, holding (5, 6), at the last SYNC still moving.
+            let off = states.iter().position(|s| *s == State::SwitchOnDisabled);
+            let still = match off {
+                Some(off) => off,
+                None => v
+                    .iter()
+                    .rposition(|x| x.abs() >= STANDSTILL_M_PER_S)
+                    .map_or(0, |i| i + 1),
+            };
+            let a_max = largest_deceleration(&v[..=still]);
+            let expected_ms = v[0] / deceleration * 1e3;
+            eprintln!(
+                "605Ah = {option}: standstill after {still} ms ({:.4} m/s at {deceleration} m/s²: {expected_ms:.0} ms), largest |a| {a_max:.3} m/s²",
+                v[0]
+            );
+            assert!(a_max <= 1.05 * deceleration, "option {option}: |a| {a_max}");
+            assert!(
+                (still as f64 - expected_ms).abs() < 0.1 * expected_ms + 3.0,
+                "option {option}: {still} ms"
+            );
+            assert!(
+                v[still].abs() < STANDSTILL_M_PER_S,
+                "option {option}: {}",
+                v[still]
+            );
+            let last = *states.last().expect("ran");
+            if holds {
+                assert!(off.is_none(), "option {option}");
+                assert_eq!(last, State::QuickStopActive, "option {option}");
+                assert!(sw.iter().all(|s| s & 0x6F == 0x07));
+                assert!(v[still..].iter().all(|x| x.abs() < STANDSTILL_M_PER_S));
+            } else {
+                // Switched off only once at rest: every SYNC before was quick stop active.
+                let off = off.expect("switched off");
+                assert!(states[..off].iter().all(|s| *s == State::QuickStopActive));
+                assert_eq!(sw.last().map(|s| s & 0x4F), Some(0x40));
+            }
+        }
+    }
+
+    #[test]
+    fn a_halt_decelerates_on_the_profile_deceleration_and_reports_the_target_reached() {
+        let (v, sw, states) = stop_run(2, 0x10F, 300);
+        let still = v
+            .iter()
+            .rposition(|x| x.abs() >= STANDSTILL_M_PER_S)
+            .map_or(0, |i| i + 1);
+        let a_max = largest_deceleration(&v[..still]);
+        eprintln!("halt: standstill after {still} ms, largest |a| {a_max:.3} m/s²");
+        assert!(a_max <= 1.05, "|a| {a_max}");
+        let expected_ms = v[0] / 1.0 * 1e3;
+        assert!(
+            (still as f64 - expected_ms).abs() < 0.1 * expected_ms + 3.0,
+            "{still} ms"
+        );
+        assert!(states.iter().all(|s| *s == State::OperationEnabled));
+        // Bit 10 only once stopped, and from then on.
+        let reached = sw
+            .iter()
+            .position(|s| s & cia402::status::TARGET_REACHED != 0)
+            .expect("target reached");
+        assert!(
+            reached + 1 >= still,
+            "bit 10 at {reached}, still at {still}"
+        );
+        assert!(sw[reached..].iter().all(|s| s & 0x0400 != 0));
+        assert!(
+            sw.iter().all(|s| s & 0x6F == 0x27),
+            "operation enabled throughout"
+        );
+    }
+
+    #[test]
+    fn quick_stop_option_codes_the_drive_does_not_have_are_refused() {
+        let mut n = ProfileNode::new(Profile::Cia402, 16, vec![]);
+        for bad in [0u32, 3, 4, 7, 8, 0xFFFF] {
+            let a = sdo_write(&mut n, cia402::QUICK_STOP_OPTION, 0, bad, 2);
+            assert_eq!(abort_code(&a), Some(0x0609_0030), "{bad}");
+        }
+        for good in [1u32, 2, 5, 6] {
+            let a = sdo_write(&mut n, cia402::QUICK_STOP_OPTION, 0, good, 2);
+            assert_eq!(abort_code(&a), None, "{good}");
+            assert_eq!(n.drive.quick_stop_option(), good as i16);
+        }
     }
 
     #[test]
