@@ -709,8 +709,9 @@ fn choice_keys_list_their_values_and_refuse_others() {
     let err = toml::from_str::<FaultReactionsSection>("current_gain = \"shrug\"")
         .expect_err("not a reaction");
     assert!(
-        err.to_string()
-            .contains("expected one of `warning`, `maintenance_requested`, `fail_safe`"),
+        err.to_string().contains(
+            "expected one of `warning`, `maintenance_requested`, `halt`, `quick_stop`, `fail_safe`"
+        ),
         "{err}"
     );
     let r: FaultReactionsSection =
