@@ -2,12 +2,15 @@
 //! frame the controller sent and every record it wrote kept, for tests that judge a run by its
 //! frames and records.
 
-use actuatord::bus::Frame;
+use actuatord::bus::{Bus, BusError, BusEvent, Frame};
 use actuatord::daemon::record::CycleRecord;
 use actuatord::daemon::Config;
 use actuatord::device::{messages, Emcy};
 use actuatord::lockstep::LockStep;
 use actuatord::physics::{Plant, ScheduledFault};
+use actuatord::simnode::SimNode;
+use std::collections::VecDeque;
+use std::time::Instant;
 
 pub struct Rig {
     pub lockstep: LockStep,
@@ -68,5 +71,38 @@ impl Rig {
         self.frames(messages::EMCY.cob_id(1), |f| {
             Emcy::decode(f).expect("emcy decodes")
         })
+    }
+}
+
+/// A bus whose only other node is one simulated node: every frame sent reaches it at once, and
+/// its answers wait to be received (a start-up over SDO without clocks).
+pub struct SimBus<'a> {
+    sim: &'a mut SimNode,
+    answers: VecDeque<Frame>,
+}
+
+impl<'a> SimBus<'a> {
+    pub fn new(sim: &'a mut SimNode) -> Self {
+        SimBus {
+            sim,
+            answers: VecDeque::new(),
+        }
+    }
+}
+
+impl Bus for SimBus<'_> {
+    fn send(&mut self, frame: &Frame) -> Result<(), BusError> {
+        let answers = &mut self.answers;
+        self.sim
+            .handle(frame, &mut |f| answers.push_back(*f), &mut |_| {});
+        Ok(())
+    }
+
+    fn recv_until(&mut self, _deadline: Instant) -> Result<Option<BusEvent>, BusError> {
+        Ok(self.answers.pop_front().map(BusEvent::Frame))
+    }
+
+    fn name(&self) -> &str {
+        "sim"
     }
 }

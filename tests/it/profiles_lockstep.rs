@@ -3,8 +3,9 @@
 //! reset, a refused mapping and a mapping taken from an EDS. The same runs on vcan in
 //! `tests/vcan_profiles.rs`.
 
+use crate::common::lockstep::SimBus;
 use crate::common::paths::root;
-use actuatord::bus::{Bus, BusError, BusEvent, Frame};
+use actuatord::bus::Frame;
 use actuatord::daemon::config::Config;
 use actuatord::daemon::node::CycleTiming;
 use actuatord::daemon::profile_setup::{configure, SetupError};
@@ -14,32 +15,7 @@ use actuatord::device::profile::cia402::State;
 use actuatord::device::{Emcy, FaultResetPdo};
 use actuatord::simnode::{DriveFault, Profile, ProfileNode, SimNode};
 use actuatord::supervise::FaultKind;
-use std::collections::VecDeque;
 use std::path::Path;
-use std::time::Instant;
-
-/// A bus whose only other node is the simulated one: every frame sent reaches it at once.
-struct SimBus<'a> {
-    sim: &'a mut SimNode,
-    answers: VecDeque<Frame>,
-}
-
-impl Bus for SimBus<'_> {
-    fn send(&mut self, frame: &Frame) -> Result<(), BusError> {
-        let answers = &mut self.answers;
-        self.sim
-            .handle(frame, &mut |f| answers.push_back(*f), &mut |_| {});
-        Ok(())
-    }
-
-    fn recv_until(&mut self, _deadline: Instant) -> Result<Option<BusEvent>, BusError> {
-        Ok(self.answers.pop_front().map(BusEvent::Frame))
-    }
-
-    fn name(&self) -> &str {
-        "sim"
-    }
-}
 
 fn sim(profile: Profile, plant: &str, drive_faults: Vec<DriveFault>, period_s: f64) -> SimNode {
     let plant = actuatord::physics::load_plant(&root().join(plant)).expect("plant");
@@ -71,14 +47,7 @@ struct Rig {
 impl Rig {
     /// Set the node up over SDO as the daemon does, then boot the controller.
     fn new(config: &Config, mut sim: SimNode) -> Result<Self, SetupError> {
-        let layout = configure(
-            &mut SimBus {
-                sim: &mut sim,
-                answers: VecDeque::new(),
-            },
-            &config.node,
-            &config.axis[0],
-        )?;
+        let layout = configure(&mut SimBus::new(&mut sim), &config.node, &config.axis[0])?;
         let mut controller = ControllerNode::new(config).expect("controller");
         controller.set_node_layout(0, &layout);
         let mut rig = Self {
@@ -418,10 +387,7 @@ fn a_mapping_from_the_eds_is_checked_on_the_node() {
         0.002,
     );
     configure(
-        &mut SimBus {
-            sim: &mut configured,
-            answers: VecDeque::new(),
-        },
+        &mut SimBus::new(&mut configured),
         &drive_config().node,
         &drive_config().axis[0],
     )

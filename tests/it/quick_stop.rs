@@ -5,8 +5,9 @@
 //! deceleration, and their statuswords say what they do. Also: the reactions refused where
 //! they do not fit, naming the file and the key.
 
+use crate::common::lockstep::SimBus;
 use crate::common::paths::root;
-use actuatord::bus::{Bus, BusError, BusEvent, Frame};
+use actuatord::bus::Frame;
 use actuatord::daemon::config::Config;
 use actuatord::daemon::node::CycleTiming;
 use actuatord::daemon::profile_setup::configure;
@@ -15,32 +16,7 @@ use actuatord::daemon::ControllerNode;
 use actuatord::device::profile::cia402::{self, State};
 use actuatord::simnode::{Profile, ProfileNode, SimNode};
 use actuatord::supervise::ReactionName;
-use std::collections::VecDeque;
 use std::path::Path;
-use std::time::Instant;
-
-/// A bus to one simulated node, for its start-up over SDO.
-struct OneNode<'a> {
-    sim: &'a mut SimNode,
-    answers: VecDeque<Frame>,
-}
-
-impl Bus for OneNode<'_> {
-    fn send(&mut self, frame: &Frame) -> Result<(), BusError> {
-        let answers = &mut self.answers;
-        self.sim
-            .handle(frame, &mut |f| answers.push_back(*f), &mut |_| {});
-        Ok(())
-    }
-
-    fn recv_until(&mut self, _deadline: Instant) -> Result<Option<BusEvent>, BusError> {
-        Ok(self.answers.pop_front().map(BusEvent::Frame))
-    }
-
-    fn name(&self) -> &str {
-        "sim"
-    }
-}
 
 const QUICK_STOP_DECELERATION: f64 = 2.0;
 const PROFILE_DECELERATION: f64 = 1.0;
@@ -115,15 +91,8 @@ impl Rig {
             let mut sim = SimNode::new(id, plant, config.cycle.period_s, vec![])
                 .with_profile(ProfileNode::new(Profile::Cia402, id, vec![]));
             sim.boot(&mut |_| {});
-            let layout = configure(
-                &mut OneNode {
-                    sim: &mut sim,
-                    answers: VecDeque::new(),
-                },
-                &config.node,
-                axis,
-            )
-            .expect("the drive takes its configuration");
+            let layout = configure(&mut SimBus::new(&mut sim), &config.node, axis)
+                .expect("the drive takes its configuration");
             controller.set_node_layout(i, &layout);
             sims.push(sim);
         }
